@@ -1,0 +1,268 @@
+// mock_serial: a byte_stream in virtual time, for tests.
+//
+// The line runs at a configured serial_format: every byte takes its wire time, a write
+// returns when its last byte has left (like write + tcdrain), and read_some() moves the
+// clock to the next arriving byte or to the deadline, so a 5 s timeout costs no real time.
+// The far end is a mock_peer: scripted (script_peer) or a simulated device. Every byte on
+// the line is recorded with its start and end time so tests can assert gaps exactly.
+// Fixed capacity, no heap: usable in firmware-style tests too.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <system_error>
+
+#include "ferrule/core/byte_stream.hpp"
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/serial_format.hpp"
+#include "ferrule/core/time.hpp"
+
+namespace ferrule {
+
+class mock_serial;
+
+// The device at the other end of a mock_serial line.
+class mock_peer {
+public:
+    // Bytes written by the session under test; `end` is when the last one left the wire.
+    virtual void on_receive(mock_serial& line, std::span<const std::uint8_t> bytes,
+                            time_point end) = 0;
+    // When the peer next wants to act (reply after a delay), or never.
+    virtual time_point wake_at() const noexcept { return never; }
+    virtual void on_wake(mock_serial&, time_point) {}
+
+protected:
+    ~mock_peer() = default;
+};
+
+struct wire_byte {
+    enum class from : std::uint8_t { session, peer };
+    time_point start;
+    time_point end;
+    std::uint8_t value;
+    from origin;
+};
+
+class mock_serial {
+public:
+    using time_point = ferrule::time_point;
+    static constexpr std::size_t rx_capacity = 1024;
+    static constexpr std::size_t log_capacity = 4096;
+
+    explicit mock_serial(serial_format fmt, mock_peer* peer = nullptr) noexcept
+        : fmt_(fmt), peer_(peer) {}
+
+    void set_peer(mock_peer* p) noexcept { peer_ = p; }
+    const serial_format& format() const noexcept { return fmt_; }
+    duration char_time() const noexcept { return fmt_.char_time(); }
+
+    // --- byte_stream -------------------------------------------------------------------
+    time_point now() const noexcept { return now_; }
+
+    io_result write(std::span<const std::uint8_t> out) {
+        process_wakes(now_);
+        if (fail_writes_ > 0) {
+            --fail_writes_;
+            return {0, make_error_code(errc::transport)};
+        }
+        if (rx_line_free_ > now_) ++collisions_;
+        const time_point start = now_;
+        for (std::size_t i = 0; i < out.size(); ++i)
+            log(start + fmt_.chars_time(i), start + fmt_.chars_time(i + 1), out[i],
+                wire_byte::from::session);
+        now_ = start + fmt_.chars_time(out.size());
+        ++writes_;
+        if (peer_ && !out.empty()) peer_->on_receive(*this, out, now_);
+        return {out.size(), {}};
+    }
+
+    io_result read_some(std::span<std::uint8_t> in, time_point deadline) {
+        if (in.empty()) return {0, {}};
+        for (;;) {
+            process_wakes(now_);
+            if (rx_size_ > 0 && rx_[rx_head_].arrival <= now_) {
+                std::size_t n = 0;
+                const std::size_t limit = read_size_ ? std::min(read_size_, in.size()) : in.size();
+                while (n < limit && rx_size_ > 0 && rx_[rx_head_].arrival <= now_) {
+                    in[n++] = rx_[rx_head_].value;
+                    pop_rx();
+                }
+                return {n, {}};
+            }
+            time_point next = rx_size_ > 0 ? rx_[rx_head_].arrival : never;
+            if (peer_) next = std::min(next, peer_->wake_at());
+            if (next > deadline) {
+                if (deadline > now_) now_ = deadline;
+                return {0, make_error_code(errc::timeout)};
+            }
+            if (next > now_) now_ = next;
+        }
+    }
+
+    // Optional byte_stream members.
+    void discard_input() noexcept {
+        process_wakes(now_);
+        while (rx_size_ > 0 && rx_[rx_head_].arrival <= now_) {
+            pop_rx();
+            ++discarded_;
+        }
+    }
+
+    // --- the peer's side ---------------------------------------------------------------
+    // Puts bytes on the line towards the session, first byte starting at `start` (or when
+    // the line is free), with `gap` of silence between consecutive bytes.
+    void inject(std::span<const std::uint8_t> bytes, time_point start, duration gap = {}) {
+        const time_point t0 = std::max(start, rx_line_free_);
+        for (std::size_t i = 0; i < bytes.size(); ++i) {
+            // Exact wire times: byte i starts after i characters and i gaps.
+            const time_point s = t0 + fmt_.chars_time(i) + static_cast<std::int64_t>(i) * gap;
+            const time_point end = t0 + fmt_.chars_time(i + 1) + static_cast<std::int64_t>(i) * gap;
+            if (rx_size_ < rx_capacity) {
+                rx_[(rx_head_ + rx_size_) % rx_capacity] = {end, bytes[i]};
+                ++rx_size_;
+            } else {
+                ++overflowed_;
+            }
+            log(s, end, bytes[i], wire_byte::from::peer);
+            rx_line_free_ = end;
+        }
+    }
+
+    // --- time and faults ---------------------------------------------------------------
+    void advance(duration d) { sleep_until(now_ + d); }
+    void sleep_until(time_point t) {
+        while (peer_ && peer_->wake_at() <= t) {
+            const time_point w = peer_->wake_at();
+            if (w > now_) now_ = w;
+            peer_->on_wake(*this, now_);
+        }
+        if (t > now_) now_ = t;
+    }
+    // The next n writes fail with errc::transport (like Beast's test::stream fail_count).
+    void fail_next_writes(unsigned n) noexcept { fail_writes_ = n; }
+    // Deliver at most n bytes per read_some (0: as many as have arrived).
+    void set_read_size(std::size_t n) noexcept { read_size_ = n; }
+
+    // --- what happened -----------------------------------------------------------------
+    std::span<const wire_byte> wire() const noexcept { return {log_.data(), log_size_}; }
+    std::size_t pending() const noexcept { return rx_size_; }
+    std::size_t discarded() const noexcept { return discarded_; }
+    std::size_t collisions() const noexcept { return collisions_; }
+    std::size_t writes() const noexcept { return writes_; }
+    std::size_t log_overflowed() const noexcept { return log_dropped_; }
+    std::size_t rx_overflowed() const noexcept { return overflowed_; }
+    void clear_wire_log() noexcept { log_size_ = 0; }
+
+private:
+    struct rx_byte {
+        time_point arrival;
+        std::uint8_t value;
+    };
+
+    void process_wakes(time_point t) {
+        while (peer_ && peer_->wake_at() <= t)
+            peer_->on_wake(*this, std::max(peer_->wake_at(), now_));
+    }
+    void pop_rx() noexcept {
+        rx_head_ = (rx_head_ + 1) % rx_capacity;
+        --rx_size_;
+    }
+    void log(time_point s, time_point e, std::uint8_t v, wire_byte::from f) noexcept {
+        if (log_size_ < log_capacity)
+            log_[log_size_++] = {s, e, v, f};
+        else
+            ++log_dropped_;
+    }
+
+    serial_format fmt_;
+    mock_peer* peer_;
+    time_point now_{};
+    time_point rx_line_free_{};
+    std::array<rx_byte, rx_capacity> rx_{};
+    std::size_t rx_head_ = 0;
+    std::size_t rx_size_ = 0;
+    std::array<wire_byte, log_capacity> log_{};
+    std::size_t log_size_ = 0;
+    std::size_t log_dropped_ = 0;
+    std::size_t discarded_ = 0;
+    std::size_t overflowed_ = 0;
+    std::size_t collisions_ = 0;
+    std::size_t writes_ = 0;
+    std::size_t read_size_ = 0;
+    unsigned fail_writes_ = 0;
+};
+
+static_assert(session_stream<mock_serial>);
+static_assert(discards_input<mock_serial>);
+
+// A peer that follows a script: for each request, check the bytes and answer.
+struct script_step {
+    std::span<const std::uint8_t> expect{}; // empty: accept any request
+    std::span<const std::uint8_t> reply{};  // empty: no reply (the device stays silent)
+    duration delay{};                       // request end -> first reply byte
+    std::span<const std::uint8_t> noise{};  // sent right after the request, before the reply
+    std::size_t chunk = 0;                  // split the reply into chunks of this size ...
+    duration chunk_gap{};                   // ... with this silence between them
+    int drop_index = -1;                    // leave out this reply byte
+    int corrupt_index = -1;                 // flip bits of this reply byte
+    std::uint8_t corrupt_mask = 0xFF;
+};
+
+class script_peer final : public mock_peer {
+public:
+    explicit script_peer(std::span<const script_step> steps) noexcept : steps_(steps) {}
+
+    void on_receive(mock_serial& line, std::span<const std::uint8_t> bytes,
+                    time_point end) override {
+        if (next_ >= steps_.size()) {
+            ++unexpected_;
+            return;
+        }
+        const script_step& s = steps_[next_++];
+        if (!s.expect.empty() &&
+            !std::equal(bytes.begin(), bytes.end(), s.expect.begin(), s.expect.end())) {
+            ++mismatches_;
+            if (first_mismatch_ == 0) first_mismatch_ = next_;
+        }
+        if (!s.noise.empty()) line.inject(s.noise, end);
+        if (s.reply.empty()) return;
+        std::array<std::uint8_t, 512> buf{};
+        std::size_t n = 0;
+        for (std::size_t i = 0; i < s.reply.size() && n < buf.size(); ++i) {
+            if (static_cast<int>(i) == s.drop_index) continue;
+            std::uint8_t b = s.reply[i];
+            if (static_cast<int>(i) == s.corrupt_index)
+                b = static_cast<std::uint8_t>(b ^ s.corrupt_mask);
+            buf[n++] = b;
+        }
+        const std::span<const std::uint8_t> reply(buf.data(), n);
+        time_point t = end + s.delay;
+        if (s.chunk == 0) {
+            line.inject(reply, t);
+            return;
+        }
+        for (std::size_t off = 0; off < reply.size(); off += s.chunk) {
+            const auto part = reply.subspan(off, std::min(s.chunk, reply.size() - off));
+            line.inject(part, t);
+            t += line.format().chars_time(part.size()) + s.chunk_gap;
+        }
+    }
+
+    std::size_t steps_done() const noexcept { return next_; }
+    bool finished() const noexcept { return next_ == steps_.size(); }
+    std::size_t mismatches() const noexcept { return mismatches_; }
+    std::size_t first_mismatch() const noexcept { return first_mismatch_; } // 1-based step
+    std::size_t unexpected_requests() const noexcept { return unexpected_; }
+
+private:
+    std::span<const script_step> steps_;
+    std::size_t next_ = 0;
+    std::size_t mismatches_ = 0;
+    std::size_t first_mismatch_ = 0;
+    std::size_t unexpected_ = 0;
+};
+
+} // namespace ferrule

@@ -1,0 +1,59 @@
+// UART character format and the timing that follows from it. Every protocol's gaps
+// and timeouts are expressed in character times, so this is the one place they come from.
+#pragma once
+
+#include <cstdint>
+#include <string_view>
+
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/result.hpp"
+#include "ferrule/core/time.hpp"
+
+namespace ferrule {
+
+enum class parity : std::uint8_t { none, even, odd };
+
+struct serial_format {
+    std::uint32_t baud = 9600;
+    std::uint8_t data_bits = 8;
+    ferrule::parity parity = ferrule::parity::even;
+    std::uint8_t stop_bits = 1;
+
+    // start bit + data + parity + stop bits
+    constexpr unsigned bits_per_char() const noexcept {
+        return 1u + data_bits + (parity == ferrule::parity::none ? 0u : 1u) + stop_bits;
+    }
+    // Time one character occupies on the wire, rounded up to the next nanosecond.
+    constexpr duration char_time() const noexcept { return chars_time(1); }
+    // Wire time of n back-to-back characters (computed exactly, rounded up once).
+    constexpr duration chars_time(std::uint64_t n) const noexcept {
+        const std::uint64_t bits = n * bits_per_char();
+        return duration{static_cast<std::int64_t>((bits * 1'000'000'000ull + baud - 1) / baud)};
+    }
+
+    friend constexpr bool operator==(const serial_format&, const serial_format&) = default;
+
+    // "8E1", "7E1", "8N1", "8O2" …
+    static result<serial_format> parse(std::string_view spec, std::uint32_t baud = 9600) noexcept {
+        if (spec.size() != 3) return errc::invalid_argument;
+        serial_format f;
+        f.baud = baud;
+        if (spec[0] < '5' || spec[0] > '8') return errc::invalid_argument;
+        f.data_bits = static_cast<std::uint8_t>(spec[0] - '0');
+        switch (spec[1]) {
+        case 'N':
+        case 'n': f.parity = ferrule::parity::none; break;
+        case 'E':
+        case 'e': f.parity = ferrule::parity::even; break;
+        case 'O':
+        case 'o': f.parity = ferrule::parity::odd; break;
+        default: return errc::invalid_argument;
+        }
+        if (spec[2] != '1' && spec[2] != '2') return errc::invalid_argument;
+        f.stop_bits = static_cast<std::uint8_t>(spec[2] - '0');
+        if (baud == 0) return errc::invalid_argument;
+        return f;
+    }
+};
+
+} // namespace ferrule
