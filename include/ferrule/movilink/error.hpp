@@ -1,0 +1,150 @@
+// Device errors reported in the MOVILINK parameter channel (status bit set), kept as a
+// std::error_code whose value packs class, code and additional code so nothing the drive
+// said is lost. Texts: SC01 §6.2 p.65-66 (MOVIDRIVE) and MTB "additional codes" (MOVITRAC B).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <system_error>
+
+#include "ferrule/movilink/param.hpp"
+
+namespace ferrule::movilink {
+
+// Error classes (SC01 p.65, EN 50170 / IEC 61158).
+enum class error_class : std::uint8_t {
+    vfd_state = 1,
+    application_reference = 2,
+    definition = 3,
+    resource = 4,
+    service = 5,
+    access = 6,
+    object_list = 7,
+    other = 8, // drive return codes: see the additional code
+};
+
+// Additional codes of error class 8, code 0 (SC01 p.66; MTB for 0x1F-0x29).
+enum class additional_code : std::uint16_t {
+    no_error = 0x00,
+    invalid_index = 0x10,
+    not_implemented = 0x11,
+    read_only = 0x12,
+    parameter_lock = 0x13,
+    factory_setting_active = 0x14,
+    value_too_large = 0x15,
+    value_too_small = 0x16,
+    option_missing = 0x17,
+    system_software = 0x18,
+    access_via_x13_only = 0x19,
+    access_via_diagnostic_only = 0x1A,
+    access_protected = 0x1B,
+    controller_inhibit_required = 0x1C,
+    invalid_value = 0x1D,
+    factory_setting_activated = 0x1E,
+    not_saved_in_eeprom = 0x1F,
+    output_stage_enabled = 0x20,
+};
+
+inline const char* error_class_text(std::uint8_t c) noexcept {
+    switch (c) {
+    case 1: return "vfd state";
+    case 2: return "application reference";
+    case 3: return "definition";
+    case 4: return "resource";
+    case 5: return "service";
+    case 6: return "access";
+    case 7: return "object list";
+    case 8: return "other";
+    }
+    return "unknown class";
+}
+
+inline const char* additional_code_text(std::uint16_t a) noexcept {
+    switch (a) {
+    case 0x00: return "no error";
+    case 0x10: return "invalid parameter index";
+    case 0x11: return "function/parameter not implemented";
+    case 0x12: return "read access only";
+    case 0x13: return "parameter lock is active";
+    case 0x14: return "factory setting is active";
+    case 0x15: return "parameter value too large";
+    case 0x16: return "parameter value too small";
+    case 0x17: return "option card required for this function/parameter is missing";
+    case 0x18: return "error in system software";
+    case 0x19: return "parameter access via RS-485 process interface on X13 only";
+    case 0x1A: return "parameter access via RS-485 diagnostic interface only";
+    case 0x1B: return "parameter has access protection";
+    case 0x1C: return "controller inhibit required";
+    case 0x1D: return "incorrect parameter value";
+    case 0x1E: return "factory setting was activated";
+    case 0x1F: return "parameter was not saved in EEPROM";
+    case 0x20: return "parameter cannot be changed with enabled output stage";
+    case 0x21: return "end of file";
+    case 0x22: return "communication order";
+    case 0x23: return "'IPOS stop' required";
+    case 0x24: return "autosetup";
+    case 0x25: return "encoder nameplate error";
+    case 0x29: return "PLC state error";
+    }
+    return "unknown additional code";
+}
+
+// Special return codes of class 5 / 6 (SC01 p.46; MOVI-PLC manual p.61).
+inline const char* special_code_text(std::uint8_t cls, std::uint8_t code) noexcept {
+    if (cls == 5 && code == 5) return "illegal service code in the management byte";
+    if (cls == 6 && code == 8) return "data length is not 4 bytes";
+    if (cls == 6 && code == 2) return "internal communication error: repeat the service";
+    return nullptr;
+}
+
+class device_category_t final : public std::error_category {
+public:
+    const char* name() const noexcept override { return "movilink"; }
+    std::string message(int ev) const override {
+        const auto v = static_cast<std::uint32_t>(ev);
+        const auto cls = static_cast<std::uint8_t>(v >> 24);
+        const auto code = static_cast<std::uint8_t>(v >> 16);
+        const auto add = static_cast<std::uint16_t>(v);
+        const char* special = add == 0 ? special_code_text(cls, code) : nullptr;
+        // Built without snprintf, which would pull printf into firmware.
+        std::string m = "drive error class " + std::to_string(cls);
+        m += " (";
+        m += error_class_text(cls);
+        m += "), code ";
+        m += std::to_string(code);
+        m += ", additional code 0x";
+        for (int shift = 12; shift >= 0; shift -= 4) m += "0123456789ABCDEF"[(add >> shift) & 0xFu];
+        m += ": ";
+        m += special ? special : additional_code_text(add);
+        return m;
+    }
+};
+
+inline const std::error_category& device_category() noexcept {
+    static const device_category_t instance;
+    return instance;
+}
+
+// The error_code for a parameter channel with the status bit set. The value is the
+// channel's data word (class << 24 | code << 16 | additional), so it round-trips.
+inline std::error_code make_device_error(std::uint32_t error_data_word) noexcept {
+    // A data word of 0 would read as "no error"; class 0 is not defined, keep it visible.
+    return {static_cast<int>(error_data_word == 0 ? 0x80000000u : error_data_word),
+            device_category()};
+}
+inline std::error_code make_device_error(const param_channel& p) noexcept {
+    return make_device_error(p.data);
+}
+
+struct device_error_fields {
+    std::uint8_t error_class;
+    std::uint8_t code;
+    std::uint16_t additional;
+};
+inline device_error_fields fields_of(std::error_code ec) noexcept {
+    const auto v = static_cast<std::uint32_t>(ec.value());
+    return {static_cast<std::uint8_t>(v >> 24), static_cast<std::uint8_t>(v >> 16),
+            static_cast<std::uint16_t>(v)};
+}
+
+} // namespace ferrule::movilink
