@@ -1,0 +1,134 @@
+// A simulated MOVILINK multi-drop line: up to N stations, each a movilink::slave session
+// with a simulated MOVITRAC B behind it, as the mock_peer of a mock_serial.
+//
+//   * every station hears the master's bytes with their wire timing; the addressed one's
+//     drive handles the request when its BCC has arrived, and its slave puts the reply on
+//     the line after the start pause (plus the slave's processing_time)
+//   * the stations do not hear each other's replies
+//   * fault knobs act on the next k replies, whichever station sends them: drop the reply
+//     (the master sees a timeout), flip bits of one byte, or send it later
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/core/session.hpp"
+#include "ferrule/core/time.hpp"
+#include "ferrule/movilink/constants.hpp"
+#include "ferrule/movilink/sim_movitrac_b.hpp"
+#include "ferrule/movilink/slave.hpp"
+
+namespace ferrule::movilink::sim {
+
+template <std::size_t N>
+class bus final : public mock_peer {
+public:
+    struct station {
+        movilink::slave session{};
+        movitrac_b drive{};
+    };
+
+    // A station at the end of the line (the drive's P810 / P811 follow the slave's
+    // addresses); nullptr when all N places are taken.
+    station* add(const slave_config& slave_cfg = {}, const movitrac_b_config& drive_cfg = {}) {
+        if (size_ == N) return nullptr;
+        station& st = stations_[size_++];
+        st = station{movilink::slave(slave_cfg), movitrac_b(drive_cfg)};
+        st.drive.preset(parameter_index::p810_rs485_address, slave_cfg.address);
+        st.drive.preset(parameter_index::p811_rs485_group_address, slave_cfg.group);
+        return &st;
+    }
+
+    std::size_t size() const noexcept { return size_; }
+    station& operator[](std::size_t i) noexcept { return stations_[i]; }
+    const station& operator[](std::size_t i) const noexcept { return stations_[i]; }
+
+    // Runs every drive's motor model up to `now`.
+    void advance(time_point now) noexcept {
+        for (auto& st : active()) st.drive.advance(now);
+    }
+
+    // --- fault knobs ---------------------------------------------------------------------
+    void drop_replies(unsigned k) noexcept { drop_ = k; }
+    void corrupt_replies(unsigned k, std::size_t byte_index, std::uint8_t mask = 0xFF) noexcept {
+        corrupt_ = k;
+        corrupt_index_ = byte_index;
+        corrupt_mask_ = mask;
+    }
+    void delay_replies(unsigned k, duration extra) noexcept {
+        delay_ = k;
+        extra_delay_ = extra;
+    }
+
+    std::size_t replies_sent() const noexcept { return sent_; } // put on the line
+    std::size_t replies_dropped() const noexcept { return dropped_; }
+
+    // --- mock_peer -----------------------------------------------------------------------
+    void on_receive(mock_serial&, std::span<const std::uint8_t> bytes, time_point end) override {
+        for (auto& st : active()) {
+            st.session.on_receive(bytes, end);
+            if (!st.session.has_request()) continue;
+            const telegram reply = st.drive.handle(st.session.request(), st.session.request_end());
+            if (st.session.response_expected())
+                (void)st.session.respond(reply);
+            else
+                st.session.consume();
+        }
+    }
+
+    time_point wake_at() const noexcept override {
+        time_point t = never;
+        for (const auto& st : active()) t = std::min(t, st.session.reply_at());
+        return t;
+    }
+
+    void on_wake(mock_serial& line, time_point now) override {
+        for (auto& st : active()) {
+            const session_action a = st.session.next(now);
+            if (a.what == session_action::kind::send) deliver(line, a.bytes, now);
+        }
+    }
+
+private:
+    std::span<station> active() noexcept { return {stations_.data(), size_}; }
+    std::span<const station> active() const noexcept { return {stations_.data(), size_}; }
+
+    void deliver(mock_serial& line, std::span<const std::uint8_t> reply, time_point at) {
+        if (drop_ > 0) {
+            --drop_;
+            ++dropped_;
+            return;
+        }
+        std::array<std::uint8_t, max_telegram_size> buf{};
+        std::copy(reply.begin(), reply.end(), buf.begin());
+        if (corrupt_ > 0) {
+            --corrupt_;
+            if (corrupt_index_ < reply.size())
+                buf[corrupt_index_] =
+                    static_cast<std::uint8_t>(buf[corrupt_index_] ^ corrupt_mask_);
+        }
+        if (delay_ > 0) {
+            --delay_;
+            at += extra_delay_;
+        }
+        line.inject(std::span<const std::uint8_t>(buf.data(), reply.size()), at);
+        ++sent_;
+    }
+
+    std::array<station, N> stations_{};
+    std::size_t size_ = 0;
+    unsigned drop_ = 0;
+    unsigned corrupt_ = 0;
+    std::size_t corrupt_index_ = 0;
+    std::uint8_t corrupt_mask_ = 0xFF;
+    unsigned delay_ = 0;
+    duration extra_delay_{};
+    std::size_t sent_ = 0;
+    std::size_t dropped_ = 0;
+};
+
+} // namespace ferrule::movilink::sim
