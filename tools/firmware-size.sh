@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
-# Usage: tools/firmware-size.sh [-v] <elf> <namespace-regex>
+# Usage: tools/firmware-size.sh [-v] <elf> <namespace-regex> [<exclude-regex>]
 #
 # Sums the sizes of the code symbols (.text: nm types t/T, and w/W, which is where the inline
 # functions and template instantiations of a header-only library end up) of <elf> whose
-# demangled name matches the extended regex <namespace-regex>, and prints the total in bytes
-# on stdout. Symbols sharing an address are counted once. Read-only data (tables) is not counted. With -v the matching symbols are listed
+# demangled name matches the extended regex <namespace-regex> (and not <exclude-regex>, if
+# given), and prints the total in bytes on stdout. Symbols sharing an address are counted once. Read-only data (tables) is not counted. With -v the matching symbols are listed
 # on stderr, largest last.
 #   tools/firmware-size.sh build/firmware/examples/firmware/movilink_master.elf 'ferrule::movilink::'
+# MOVILINK codec + master session (no cyclic layer, no error-message texts):
+#   tools/firmware-size.sh <elf> 'ferrule::' 'ferrule::movilink::cyclic::|_category_t::'
 # NM overrides the nm binary (default arm-none-eabi-nm).
 set -euo pipefail
 
@@ -15,12 +17,13 @@ if [[ ${1:-} == -v ]]; then
     verbose=1
     shift
 fi
-if [[ $# -ne 2 ]]; then
-    echo "usage: $0 [-v] <elf> <namespace-regex>" >&2
+if [[ $# -ne 2 && $# -ne 3 ]]; then
+    echo "usage: $0 [-v] <elf> <namespace-regex> [<exclude-regex>]" >&2
     exit 2
 fi
 elf=$1
 regex=$2
+exclude=${3:-}
 nm=${NM:-arm-none-eabi-nm}
 [[ -f $elf ]] || { echo "$0: no such file: $elf" >&2; exit 2; }
 
@@ -30,6 +33,7 @@ declare -A seen # aliases (e.g. C1/C2 constructors) share one address: count it 
 while read -r addr size type name; do
     [[ $type == [tTwW] ]] || continue
     [[ $name =~ $regex ]] || continue
+    [[ -n $exclude && $name =~ $exclude ]] && continue
     [[ -z ${seen[$addr]:-} ]] || continue
     seen[$addr]=1
     total=$((total + 16#$size))
