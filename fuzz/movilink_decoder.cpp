@@ -30,24 +30,16 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <cstdio>
 #include <cstring>
 #include <span>
 
 #include "ferrule/movilink/frame.hpp"
+#include "fuzz_check.hpp"
 
 namespace {
 
 using namespace ferrule;
 using namespace ferrule::movilink;
-
-#define FERRULE_CHECK(cond)                                                                        \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            std::fprintf(stderr, "invariant violated: %s (%s:%d)\n", #cond, __FILE__, __LINE__);   \
-            __builtin_trap();                                                                      \
-        }                                                                                          \
-    } while (0)
 
 template <pdu_type T>
 void check_fixed(const telegram& t, std::span<const std::uint8_t> expected) {

@@ -35,25 +35,17 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <cstdio>
 #include <cstring>
 #include <span>
 
 #include "ferrule/movilink/master.hpp"
+#include "fuzz_check.hpp"
 
 namespace {
 
 using namespace ferrule;
 using namespace ferrule::movilink;
 using namespace std::chrono_literals;
-
-#define FERRULE_CHECK(cond)                                                                        \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            std::fprintf(stderr, "invariant violated: %s (%s:%d)\n", #cond, __FILE__, __LINE__);   \
-            __builtin_trap();                                                                      \
-        }                                                                                          \
-    } while (0)
 
 constexpr pdu_type all_types[] = {
     pdu_type::param_1pd,   pdu_type::pd1,
