@@ -1,6 +1,7 @@
 #include <catch2/catch.hpp>
 
 #include <array>
+#include <string_view>
 #include <vector>
 
 #include "ferrule/movilink/frame.hpp"
@@ -240,4 +241,14 @@ TEST_CASE("decoder counts every skipped byte once", "[movilink][decoder]") {
     s = d.feed(bytes{0x55}); // no start delimiter
     REQUIRE(s.status == decoder::status::error);
     CHECK(d.skipped() == 3 + 6 + 1);
+}
+
+TEST_CASE("names of PDU types, services and address kinds", "[movilink][frame]") {
+    CHECK(std::string_view(name(pdu_type::pd3)) == "3PD cyclic");
+    CHECK(std::string_view(name(pdu_type::param_acyclic)) == "PARAM acyclic");
+    CHECK(std::string_view(name(pdu_type::param_1pd_acyclic)) == "PARAM + 1PD acyclic");
+    CHECK(std::string_view(name(service::write_volatile)) == "write volatile");
+    CHECK(std::string_view(name(service::read_attribute)) == "read attribute");
+    CHECK(std::string_view(name(kind_of(101))) == "group");
+    CHECK(std::string_view(name(kind_of(254))) == "point-to-point");
 }

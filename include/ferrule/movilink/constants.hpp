@@ -91,6 +91,20 @@ constexpr pdu_type pd_type(std::size_t words, bool with_param, bool acyclic) noe
     return static_cast<pdu_type>(k | (acyclic ? acyclic_bit : 0));
 }
 
+// "PARAM + 3PD acyclic" and so on, for tools and traces.
+constexpr const char* name(pdu_type t) noexcept {
+    switch (static_cast<std::uint8_t>(t) & 0x7Fu) {
+    case 0x00: return is_acyclic(t) ? "PARAM + 1PD acyclic" : "PARAM + 1PD cyclic";
+    case 0x01: return is_acyclic(t) ? "1PD acyclic" : "1PD cyclic";
+    case 0x02: return is_acyclic(t) ? "PARAM + 2PD acyclic" : "PARAM + 2PD cyclic";
+    case 0x03: return is_acyclic(t) ? "2PD acyclic" : "2PD cyclic";
+    case 0x04: return is_acyclic(t) ? "PARAM + 3PD acyclic" : "PARAM + 3PD cyclic";
+    case 0x05: return is_acyclic(t) ? "3PD acyclic" : "3PD cyclic";
+    case 0x06: return is_acyclic(t) ? "PARAM acyclic" : "PARAM cyclic";
+    }
+    return "undocumented TYP";
+}
+
 // Addressing (SC01 p.20-22).
 enum class address_kind : std::uint8_t {
     single,         // 0-99: the addressed unit answers
@@ -111,6 +125,17 @@ constexpr address_kind kind_of(std::uint8_t adr) noexcept {
     if (adr == 253) return address_kind::local;
     if (adr == 254) return address_kind::point_to_point;
     return address_kind::broadcast;
+}
+constexpr const char* name(address_kind k) noexcept {
+    switch (k) {
+    case address_kind::single: return "single";
+    case address_kind::group: return "group";
+    case address_kind::undefined: return "undefined";
+    case address_kind::local: return "local";
+    case address_kind::point_to_point: return "point-to-point";
+    case address_kind::broadcast: return "broadcast";
+    }
+    return "undefined";
 }
 constexpr bool expects_response(std::uint8_t adr) noexcept {
     const auto k = kind_of(adr);

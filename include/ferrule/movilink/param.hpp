@@ -23,6 +23,22 @@ enum class service : std::uint8_t {
     read_attribute = 0x8,
 };
 
+// The manual's name of a service (SC01 p.29), for tools and traces.
+constexpr const char* name(service s) noexcept {
+    switch (s) {
+    case service::none: return "no service";
+    case service::read: return "read";
+    case service::write: return "write";
+    case service::write_volatile: return "write volatile";
+    case service::read_minimum: return "read minimum";
+    case service::read_maximum: return "read maximum";
+    case service::read_default: return "read default";
+    case service::read_scale: return "read scale";
+    case service::read_attribute: return "read attribute";
+    }
+    return "unknown service";
+}
+
 inline constexpr std::uint8_t mgmt_service_mask = 0x0F;
 inline constexpr std::uint8_t mgmt_length_shift = 4;
 inline constexpr std::uint8_t mgmt_length_4_bytes = 0x30; // all SEW parameters are 32-bit

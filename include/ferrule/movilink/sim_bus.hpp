@@ -19,27 +19,18 @@
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
 #include "ferrule/movilink/constants.hpp"
-#include "ferrule/movilink/sim_movitrac_b.hpp"
-#include "ferrule/movilink/slave.hpp"
+#include "ferrule/movilink/sim_station.hpp"
 
 namespace ferrule::movilink::sim {
 
 template <std::size_t N>
 class bus final : public mock_peer {
 public:
-    struct station {
-        movilink::slave session{};
-        movitrac_b drive{};
-    };
-
-    // A station at the end of the line (the drive's P810 / P811 follow the slave's
-    // addresses); nullptr when all N places are taken.
+    // A station at the end of the line; nullptr when all N places are taken.
     station* add(const slave_config& slave_cfg = {}, const movitrac_b_config& drive_cfg = {}) {
         if (size_ == N) return nullptr;
         station& st = stations_[size_++];
-        st = station{movilink::slave(slave_cfg), movitrac_b(drive_cfg)};
-        st.drive.preset(parameter_index::p810_rs485_address, slave_cfg.address);
-        st.drive.preset(parameter_index::p811_rs485_group_address, slave_cfg.group);
+        st = station(slave_cfg, drive_cfg);
         return &st;
     }
 
@@ -69,26 +60,18 @@ public:
 
     // --- mock_peer -----------------------------------------------------------------------
     void on_receive(mock_serial&, std::span<const std::uint8_t> bytes, time_point end) override {
-        for (auto& st : active()) {
-            st.session.on_receive(bytes, end);
-            if (!st.session.has_request()) continue;
-            const telegram reply = st.drive.handle(st.session.request(), st.session.request_end());
-            if (st.session.response_expected())
-                (void)st.session.respond(reply);
-            else
-                st.session.consume();
-        }
+        for (auto& st : active()) st.on_receive(bytes, end);
     }
 
     time_point wake_at() const noexcept override {
         time_point t = never;
-        for (const auto& st : active()) t = std::min(t, st.session.reply_at());
+        for (const auto& st : active()) t = std::min(t, st.reply_at());
         return t;
     }
 
     void on_wake(mock_serial& line, time_point now) override {
         for (auto& st : active()) {
-            const session_action a = st.session.next(now);
+            const session_action a = st.next(now);
             if (a.what == session_action::kind::send) deliver(line, a.bytes, now);
         }
     }
