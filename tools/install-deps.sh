@@ -6,7 +6,7 @@ set -euo pipefail
 
 packages=(
     cmake ninja-build g++ python3
-    catch2 libbenchmark-dev libasio-dev
+    catch2 libbenchmark-dev libasio-dev libcli11-dev libfmt-dev nlohmann-json3-dev
     clang-14 libclang-rt-14-dev
     gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib binutils-arm-none-eabi
 )

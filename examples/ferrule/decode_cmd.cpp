@@ -1,0 +1,188 @@
+// `ferrule decode <protocol> <hex…> | --file capture.bin`: frames and decodes captured bytes.
+#include <fstream>
+#include <iterator>
+#include <vector>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "ferrule/movilink/error.hpp"
+#include "ferrule/movilink/frame.hpp"
+#include "ferrule/movilink/process_data.hpp"
+
+namespace ferrule::cli {
+namespace {
+
+namespace ml = ferrule::movilink;
+
+struct decode_options {
+    std::string protocol;
+    std::vector<std::string> hex;
+    std::string file;
+    bool json = false;
+};
+
+// "02 01 05", "020105", "02:01:05" and "0x02 0x01" all read the same.
+bool parse_hex(const std::vector<std::string>& words, std::vector<std::uint8_t>& out) {
+    std::string digits;
+    for (const auto& w : words)
+        for (std::size_t i = 0; i < w.size(); ++i) {
+            const char ch = w[i];
+            if (ch == '0' && i + 1 < w.size() && (w[i + 1] == 'x' || w[i + 1] == 'X')) {
+                ++i;
+                continue;
+            }
+            if (std::isxdigit(static_cast<unsigned char>(ch)))
+                digits += ch;
+            else if (ch != ' ' && ch != ':' && ch != ',' && ch != '-')
+                return false;
+        }
+    if (digits.size() % 2 != 0) return false;
+    for (std::size_t i = 0; i < digits.size(); i += 2)
+        out.push_back(static_cast<std::uint8_t>(std::stoul(digits.substr(i, 2), nullptr, 16)));
+    return true;
+}
+
+void print_movilink_frame(const decode_options& o, std::size_t offset,
+                          std::span<const std::uint8_t> f) {
+    const ml::telegram t = *ml::parse(f);
+    const bool request = t.dir == ml::direction::request;
+    nlohmann::json j{{"offset", offset},
+                     {"bytes", hex(f)},
+                     {"direction", request ? "request" : "response"},
+                     {"address", t.address},
+                     {"address_kind", ml::name(ml::kind_of(t.address))},
+                     {"typ", static_cast<unsigned>(t.type)},
+                     {"pdu", ml::name(t.type)},
+                     {"bcc", "ok"}};
+    std::string text =
+        fmt::format("@{:<4} {} ADR {} ({}), TYP 0x{:02X} {}, BCC ok\n", offset,
+                    request ? "request " : "response", t.address, ml::name(ml::kind_of(t.address)),
+                    static_cast<unsigned>(t.type), ml::name(t.type));
+    if (ml::has_param(t.type)) {
+        const auto& p = t.param;
+        nlohmann::json pj{{"service", ml::name(p.svc())},
+                          {"data_length", p.data_length()},
+                          {"handshake", p.handshake()},
+                          {"error", p.is_error()},
+                          {"index", p.index},
+                          {"subindex", p.subindex},
+                          {"data", p.data}};
+        text += fmt::format("       param: {} index {} (0x{:04X}) subindex {}, data 0x{:08X}, "
+                            "handshake {}, length {}",
+                            ml::name(p.svc()), p.index, p.index, p.subindex, p.data,
+                            p.handshake() ? 1 : 0, p.data_length());
+        if (p.is_error() && !request) {
+            const auto ec = ml::make_device_error(p);
+            pj["error_text"] = ec.message();
+            text += fmt::format("\n       ERROR: {}", ec.message());
+        }
+        text += "\n";
+        j["param"] = pj;
+    }
+    nlohmann::json pd = nlohmann::json::array();
+    for (std::size_t i = 0; i < ml::pd_words(t.type); ++i) {
+        pd.push_back(t.pd[i]);
+        text += fmt::format("       {}{} 0x{:04X}", request ? "PO" : "PI", i + 1, t.pd[i]);
+        // The factory mapping: PO1 control word / PI1 status word, word 2 speed.
+        if (i == 0 && request) {
+            const ml::control_word cw{t.pd[0]};
+            constexpr const char* commands[] = {"controller inhibit", "rapid stop", "stop",
+                                                "enable"};
+            text +=
+                fmt::format("  control word 1: {}{}", commands[static_cast<int>(cw.requested())],
+                            cw.reset() ? ", reset" : "");
+        } else if (i == 0) {
+            const ml::status_word sw{t.pd[0]};
+            text +=
+                fmt::format("  status word 1: ready {}, output stage {}, {} {}", sw.ready() ? 1 : 0,
+                            sw.output_stage_enabled() ? 1 : 0, sw.fault() ? "FAULT" : "unit status",
+                            sw.fault() ? sw.fault_number() : sw.unit_status());
+        } else if (i == 1) {
+            text += fmt::format("  as speed: {:.1f} rpm", ml::digits_to_rpm(t.pd[1]));
+        }
+        text += "\n";
+    }
+    if (!pd.empty()) j["pd"] = pd;
+    if (o.json)
+        fmt::print("{}\n", j.dump());
+    else
+        fmt::print("{}", text);
+}
+
+void print_skipped(const decode_options& o, std::size_t offset, std::span<const std::uint8_t> b,
+                   const std::string& reason) {
+    if (o.json)
+        fmt::print("{}\n",
+                   nlohmann::json{{"offset", offset}, {"bytes", hex(b)}, {"error", reason}}.dump());
+    else
+        fmt::print("@{:<4} not a telegram ({}): {}\n", offset, reason, hex(b));
+}
+
+// A capture has no idle gaps, so telegrams are taken back to back: after each telegram the
+// next byte may start one; after an error one byte is skipped and framing tries again.
+// Exit code 1 when any bytes were not a telegram.
+int decode_movilink(const decode_options& o, std::span<const std::uint8_t> bytes) {
+    bool clean = true;
+    std::size_t pos = 0;
+    std::size_t junk_from = 0;
+    std::string junk_reason;
+    const auto flush_junk = [&] {
+        if (pos > junk_from) {
+            print_skipped(o, junk_from, bytes.subspan(junk_from, pos - junk_from), junk_reason);
+            clean = false;
+        }
+    };
+    while (pos < bytes.size()) {
+        ml::decoder d;
+        d.idle();
+        const auto s = d.feed(bytes.subspan(pos));
+        if (s.status == ml::decoder::status::frame) {
+            flush_junk();
+            print_movilink_frame(o, pos, d.frame());
+            pos += s.consumed;
+            junk_from = pos;
+        } else if (s.status == ml::decoder::status::need_more) {
+            flush_junk();
+            junk_from = pos;
+            junk_reason = "incomplete telegram";
+            pos = bytes.size();
+        } else {
+            if (junk_from == pos) junk_reason = s.ec.message();
+            ++pos;
+        }
+    }
+    flush_junk();
+    return clean ? exit_ok : exit_device_error;
+}
+
+} // namespace
+
+void add_decode(CLI::App& app, int& exit_status) {
+    auto* sub = app.add_subcommand("decode", "split captured bytes into frames and decode them");
+    auto o = std::make_shared<decode_options>();
+    sub->add_option("protocol", o->protocol, "movilink")
+        ->required()
+        ->check(CLI::IsMember({"movilink"}));
+    sub->add_option("bytes", o->hex, "hex bytes, e.g. 02 01 05 00 06 3A 98 01 F4 57");
+    sub->add_option("--file", o->file, "binary capture file instead of hex bytes");
+    sub->add_flag("--json", o->json, "one JSON object per frame");
+    sub->callback([o, &exit_status] {
+        std::vector<std::uint8_t> bytes;
+        if (!o->file.empty()) {
+            std::ifstream in(o->file, std::ios::binary);
+            if (!in) {
+                fmt::print(stderr, "ferrule decode: cannot read {}\n", o->file);
+                exit_status = exit_usage;
+                return;
+            }
+            bytes.assign(std::istreambuf_iterator<char>(in), {});
+        } else if (!parse_hex(o->hex, bytes) || bytes.empty()) {
+            fmt::print(stderr, "ferrule decode: give hex bytes (e.g. 02 01 05 ...) or --file\n");
+            exit_status = exit_usage;
+            return;
+        }
+        exit_status = decode_movilink(*o, bytes);
+    });
+}
+
+} // namespace ferrule::cli

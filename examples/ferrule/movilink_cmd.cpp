@@ -1,0 +1,331 @@
+// `ferrule movilink …`: a MOVILINK master on a serial port.
+#include <array>
+#include <chrono>
+#include <thread>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "ferrule/movilink/access.hpp"
+#include "ferrule/movilink/process_data.hpp"
+
+namespace ferrule::cli {
+namespace {
+
+namespace ml = ferrule::movilink;
+using namespace std::chrono_literals;
+
+// P000 speed, P004 output current, P010 inverter status, P014 heat sink temperature,
+// P094-P096 PO setpoints (SC01 §7.2; protocols/movilink.md §3.5).
+constexpr std::uint16_t p000_speed = 8318;
+constexpr std::uint16_t p004_output_current = 8321;
+constexpr std::uint16_t p010_inverter_status = 8310;
+constexpr std::uint16_t p014_heat_sink_temperature = 8327;
+constexpr std::uint16_t p094_po1_setpoint = 8455;
+
+struct movilink_options {
+    common_options common;
+    unsigned index = 0;
+    unsigned subindex = 0;
+    std::int64_t value = 0;
+    bool eeprom = false;
+    double rpm = 0;
+    unsigned ramp_ms = 1000;
+    double seconds = 10;
+    bool rapid = false;
+    unsigned count = 10;
+    unsigned interval_ms = 200;
+};
+
+bool is_device_error(std::error_code ec) {
+    return ec.category() == ml::device_category();
+}
+
+// Everything a command needs: the master, and the port unless --dry-run.
+struct context {
+    const movilink_options& o;
+    ml::master master;
+    std::unique_ptr<port_session> port;
+
+    explicit context(const movilink_options& opts, const serial_format& f)
+        : o(opts), master(config(opts, f)) {}
+
+    static ml::master_config config(const movilink_options& o, const serial_format& f) {
+        ml::master_config c;
+        c.format = f;
+        if (o.common.timeout_ms)
+            c.response_timeout = std::chrono::milliseconds(*o.common.timeout_ms);
+        if (o.common.retries) c.retries = *o.common.retries;
+        c.fault_threshold = 0; // a command-line call reports each failure itself
+        return c;
+    }
+};
+
+// The request a parameter service would send, for --dry-run.
+void print_param_request(std::uint8_t address, ml::service svc, std::uint16_t index,
+                         std::uint32_t value, std::uint8_t subindex) {
+    const ml::telegram t{ml::direction::request,
+                         address,
+                         ml::pdu_type::param_acyclic,
+                         ml::param_channel::make(svc, index, value, subindex),
+                         {}};
+    std::array<std::uint8_t, ml::max_telegram_size> buf{};
+    fmt::print("{}\n", hex(std::span(buf.data(), *ml::encode(t, buf))));
+}
+
+void print_pd_request(std::uint8_t address, std::span<const std::uint16_t> po) {
+    ml::telegram t{ml::direction::request, address, ml::pd_type(po.size(), false, false), {}, {}};
+    for (std::size_t i = 0; i < po.size(); ++i) t.pd[i] = po[i];
+    std::array<std::uint8_t, ml::max_telegram_size> buf{};
+    fmt::print("{}\n", hex(std::span(buf.data(), *ml::encode(t, buf))));
+}
+
+result<std::uint32_t> read_param(context& c, std::uint16_t index, std::uint8_t subindex = 0) {
+    return ml::read_parameter(c.port->stream(), c.master,
+                              static_cast<std::uint8_t>(c.o.common.address), index, subindex);
+}
+
+std::string status_text(ml::status_word sw) {
+    return fmt::format("0x{:04X} (ready {}, output stage {}, fault {}, {} {})", sw.value,
+                       sw.ready() ? 1 : 0, sw.output_stage_enabled() ? 1 : 0, sw.fault() ? 1 : 0,
+                       sw.fault() ? "fault number" : "unit status",
+                       sw.fault() ? sw.fault_number() : sw.unit_status());
+}
+
+int cmd_status(context& c) {
+    const auto adr = static_cast<std::uint8_t>(c.o.common.address);
+    const std::array<std::uint16_t, 4> indices{p010_inverter_status, p000_speed,
+                                               p004_output_current, p014_heat_sink_temperature};
+    if (c.o.common.dry_run) {
+        for (auto ix : indices) print_param_request(adr, ml::service::read, ix, 0, 0);
+        return exit_ok;
+    }
+    std::array<std::uint32_t, 4> v{};
+    for (std::size_t i = 0; i < indices.size(); ++i) {
+        const auto r = read_param(c, indices[i]);
+        if (!r)
+            return report_error(c.o.common, fmt::format("read index {}", indices[i]), r.error(),
+                                is_device_error(r.error()));
+        v[i] = *r;
+    }
+    const ml::status_word sw{static_cast<std::uint16_t>(v[0])};
+    const double speed = static_cast<std::int32_t>(v[1]) / 1000.0;   // P000: rpm, conversion -3
+    const double current = static_cast<std::int32_t>(v[2]) / 1000.0; // P004: % I_N, conversion -3
+    const auto temperature = static_cast<std::int32_t>(v[3]);
+    emit(c.o.common,
+         {{"ok", true},
+          {"address", adr},
+          {"status_word", sw.value},
+          {"ready", sw.ready()},
+          {"output_stage_enabled", sw.output_stage_enabled()},
+          {"fault", sw.fault()},
+          {"fault_number", sw.fault_number()},
+          {"unit_status", sw.unit_status()},
+          {"speed_rpm", speed},
+          {"current_percent", current},
+          {"heat_sink_celsius", temperature}},
+         fmt::format(
+             "drive {}: status {}\n  speed {:.1f} rpm, output current {:.1f} % I_N, heat sink "
+             "{} degC",
+             adr, status_text(sw), speed, current, temperature));
+    return exit_ok;
+}
+
+int cmd_read(context& c) {
+    const auto adr = static_cast<std::uint8_t>(c.o.common.address);
+    const auto index = static_cast<std::uint16_t>(c.o.index);
+    const auto sub = static_cast<std::uint8_t>(c.o.subindex);
+    if (c.o.common.dry_run) {
+        print_param_request(adr, ml::service::read, index, 0, sub);
+        return exit_ok;
+    }
+    const auto r = read_param(c, index, sub);
+    if (!r)
+        return report_error(c.o.common, fmt::format("read index {}", index), r.error(),
+                            is_device_error(r.error()));
+    emit(c.o.common,
+         {{"ok", true},
+          {"address", adr},
+          {"index", index},
+          {"subindex", sub},
+          {"value", static_cast<std::int32_t>(*r)},
+          {"raw", *r}},
+         fmt::format("index {} (0x{:04X}) subindex {} = {} (0x{:08X})", index, index, sub,
+                     static_cast<std::int32_t>(*r), *r));
+    return exit_ok;
+}
+
+int cmd_write(context& c) {
+    const auto adr = static_cast<std::uint8_t>(c.o.common.address);
+    const auto index = static_cast<std::uint16_t>(c.o.index);
+    const auto sub = static_cast<std::uint8_t>(c.o.subindex);
+    const auto value = static_cast<std::uint32_t>(c.o.value);
+    const auto svc = c.o.eeprom ? ml::service::write : ml::service::write_volatile;
+    if (c.o.common.dry_run) {
+        print_param_request(adr, svc, index, value, sub);
+        return exit_ok;
+    }
+    if (auto ec =
+            ml::write_parameter(c.port->stream(), c.master, adr, index, value, c.o.eeprom, sub))
+        return report_error(c.o.common, fmt::format("write index {}", index), ec,
+                            is_device_error(ec));
+    emit(c.o.common,
+         {{"ok", true},
+          {"address", adr},
+          {"index", index},
+          {"subindex", sub},
+          {"value", static_cast<std::int32_t>(value)},
+          {"service", ml::name(svc)}},
+         fmt::format("index {} (0x{:04X}) subindex {} := {} ({})", index, index, sub,
+                     static_cast<std::int32_t>(value), ml::name(svc)));
+    return exit_ok;
+}
+
+// Cyclic 3PD with `po` until `done(pi)` or the time is up; one progress line per interval.
+int cycle(context& c, std::array<std::uint16_t, 3> po, const char* what,
+          const std::function<bool(const ml::process_input&)>& done,
+          std::chrono::duration<double> limit, unsigned max_lines = 0) {
+    const auto adr = static_cast<std::uint8_t>(c.o.common.address);
+    const auto start = std::chrono::steady_clock::now();
+    auto last_line = start - 1h;
+    unsigned lines = 0;
+    for (;;) {
+        const auto pi = ml::exchange(c.port->stream(), c.master, adr, po);
+        if (!pi) return report_error(c.o.common, what, pi.error(), is_device_error(pi.error()));
+        const auto now = std::chrono::steady_clock::now();
+        const bool finished = done(*pi) || now - start >= limit;
+        if (finished || now - last_line >= std::chrono::milliseconds(c.o.interval_ms)) {
+            const ml::status_word sw{pi->words[0]};
+            const double t = std::chrono::duration<double>(now - start).count();
+            emit(c.o.common,
+                 {{"ok", true},
+                  {"t_s", t},
+                  {"address", adr},
+                  {"status_word", sw.value},
+                  {"ready", sw.ready()},
+                  {"fault", sw.fault()},
+                  {"speed_rpm", ml::digits_to_rpm(pi->words[1])},
+                  {"current_percent", ml::digits_to_current(pi->words[2])}},
+                 fmt::format("t={:6.2f} s  status {}  speed {:7.1f} rpm  current {:5.1f} % I_N", t,
+                             status_text(sw), ml::digits_to_rpm(pi->words[1]),
+                             ml::digits_to_current(pi->words[2])));
+            last_line = now;
+            if (max_lines && ++lines >= max_lines) return exit_ok;
+        }
+        if (finished) return exit_ok;
+    }
+}
+
+int cmd_run(context& c) {
+    const std::array<std::uint16_t, 3> po{
+        ml::control_word::enable().value, ml::rpm_to_digits(c.o.rpm),
+        ml::ramp_to_digits(std::chrono::milliseconds(c.o.ramp_ms))};
+    if (c.o.common.dry_run) {
+        print_pd_request(static_cast<std::uint8_t>(c.o.common.address), po);
+        return exit_ok;
+    }
+    const std::uint16_t target = po[1];
+    return cycle(
+        c, po, "run", [target](const ml::process_input& pi) { return pi.words[1] == target; },
+        std::chrono::duration<double>(c.o.seconds));
+}
+
+int cmd_stop(context& c) {
+    const auto cw = c.o.rapid ? ml::control_word::rapid_stop() : ml::control_word::stop();
+    const std::array<std::uint16_t, 3> po{
+        cw.value, 0, ml::ramp_to_digits(std::chrono::milliseconds(c.o.ramp_ms))};
+    if (c.o.common.dry_run) {
+        print_pd_request(static_cast<std::uint8_t>(c.o.common.address), po);
+        return exit_ok;
+    }
+    return cycle(
+        c, po, "stop", [](const ml::process_input& pi) { return pi.words[1] == 0; },
+        std::chrono::duration<double>(c.o.seconds));
+}
+
+// Watches PI while sending the PO words the drive already has (P094-P096), so the drive
+// keeps doing what it does.
+int cmd_watch(context& c) {
+    const auto adr = static_cast<std::uint8_t>(c.o.common.address);
+    if (c.o.common.dry_run) {
+        for (unsigned i = 0; i < 3; ++i)
+            print_param_request(adr, ml::service::read,
+                                static_cast<std::uint16_t>(p094_po1_setpoint + i), 0, 0);
+        return exit_ok;
+    }
+    std::array<std::uint16_t, 3> po{};
+    for (unsigned i = 0; i < 3; ++i) {
+        const auto r = read_param(c, static_cast<std::uint16_t>(p094_po1_setpoint + i));
+        if (!r)
+            return report_error(c.o.common, "read PO setpoints (P094-P096)", r.error(),
+                                is_device_error(r.error()));
+        po[i] = static_cast<std::uint16_t>(*r);
+    }
+    return cycle(
+        c, po, "watch", [](const ml::process_input&) { return false; }, std::chrono::hours(24),
+        c.o.count);
+}
+
+} // namespace
+
+void add_movilink(CLI::App& app, int& exit_status) {
+    auto* ml_app =
+        app.add_subcommand("movilink", "SEW MOVILINK master (MOVITRAC B, MOVIDRIVE, MOVIMOT)");
+    ml_app->require_subcommand(1);
+    auto o = std::make_shared<movilink_options>();
+
+    const auto add = [&](const char* name, const char* help, int (*fn)(context&)) {
+        auto* sub = ml_app->add_subcommand(name, help);
+        add_common_options(*sub, o->common, 1);
+        sub->callback([o, fn, &exit_status] {
+            const auto f = resolve_format(o->common, ml::default_format);
+            if (!f) {
+                fmt::print(stderr, "ferrule: --format/--baud: {}\n", f.error().message());
+                exit_status = exit_usage;
+                return;
+            }
+            context c(*o, *f);
+            if (!o->common.dry_run) {
+                c.port = port_session::open(o->common, *f);
+                if (!c.port) {
+                    exit_status = exit_transport;
+                    return;
+                }
+            }
+            exit_status = fn(c);
+        });
+        return sub;
+    };
+
+    add("status", "status word, speed, current and heat sink temperature (parameter reads)",
+        cmd_status);
+    auto* read = add("read", "read a parameter by index", cmd_read);
+    read->add_option("index", o->index, "parameter index, e.g. 8318 or 0x207E (P000)")->required();
+    read->add_option("--subindex", o->subindex, "subindex");
+    auto* write = add("write", "write a parameter by index (volatile unless --eeprom)", cmd_write);
+    write->add_option("index", o->index, "parameter index")->required();
+    write->add_option("value", o->value, "32-bit value in the parameter's unit")->required();
+    write->add_option("--subindex", o->subindex, "subindex");
+    write->add_flag("--eeprom", o->eeprom,
+                    "non-volatile write (wears the EEPROM: not for cyclic use)");
+    auto* run = add("run", "enable and run at a speed with cyclic 3PD; shows the ramp", cmd_run);
+    run->add_option("rpm", o->rpm, "speed setpoint in rpm (negative: the other direction)")
+        ->required();
+    run->add_option("--ramp", o->ramp_ms, "ramp in ms")->capture_default_str();
+    run->add_option("--seconds", o->seconds, "stop watching after this long")
+        ->capture_default_str();
+    run->add_option("--interval", o->interval_ms, "ms between progress lines")
+        ->capture_default_str();
+    auto* stop = add("stop", "stop with the ramp (or --rapid) and wait for standstill", cmd_stop);
+    stop->add_flag("--rapid", o->rapid, "rapid stop (control word 0x0000)");
+    stop->add_option("--ramp", o->ramp_ms, "ramp in ms")->capture_default_str();
+    stop->add_option("--seconds", o->seconds, "give up waiting after this long")
+        ->capture_default_str();
+    stop->add_option("--interval", o->interval_ms, "ms between progress lines")
+        ->capture_default_str();
+    auto* watch =
+        add("watch", "watch process input words without changing the drive's outputs", cmd_watch);
+    watch->add_option("--count", o->count, "lines to print")->capture_default_str();
+    watch->add_option("--interval", o->interval_ms, "ms between lines")->capture_default_str();
+}
+
+} // namespace ferrule::cli

@@ -1,0 +1,95 @@
+// serial_stream: a ferrule::byte_stream over an asio serial port, so the blocking driver
+// ferrule::run() and every protocol's access helpers work on a real port (or a pty).
+// Time is the host's steady clock. An optional tap sees every chunk written and read, with
+// its time, for tracing.
+#pragma once
+
+#include <termios.h>
+
+#include <asio/io_context.hpp>
+#include <asio/read.hpp>
+#include <asio/serial_port.hpp>
+#include <asio/steady_timer.hpp>
+#include <asio/write.hpp>
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <system_error>
+
+#include "ferrule/core/byte_stream.hpp"
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/time.hpp"
+
+namespace ferrule::host {
+
+// The host's steady clock as a ferrule::time_point.
+inline time_point steady_now() noexcept {
+    return time_point{
+        std::chrono::duration_cast<duration>(std::chrono::steady_clock::now().time_since_epoch())};
+}
+
+enum class direction : std::uint8_t { tx, rx };
+using tap_handler = std::function<void(direction, std::span<const std::uint8_t>, time_point)>;
+
+class serial_stream {
+public:
+    using time_point = ferrule::time_point;
+
+    serial_stream(::asio::io_context& ctx, ::asio::serial_port& port) noexcept
+        : ctx_(ctx), port_(port) {}
+
+    void set_tap(tap_handler tap) { tap_ = std::move(tap); }
+
+    time_point now() const noexcept { return steady_now(); }
+
+    io_result write(std::span<const std::uint8_t> out) {
+        std::error_code ec;
+        const std::size_t n = ::asio::write(port_, ::asio::buffer(out.data(), out.size()), ec);
+        if (ec) return {n, ec};
+        if (tap_) tap_(direction::tx, out.first(n), now());
+        return {n, {}};
+    }
+
+    // At least one byte, or errc::timeout at the deadline.
+    io_result read_some(std::span<std::uint8_t> in, time_point deadline) {
+        if (in.empty()) return {0, {}};
+        std::size_t got = 0;
+        std::error_code read_ec;
+        bool read_done = false;
+        ::asio::steady_timer timer(ctx_);
+        timer.expires_after(std::max(deadline - now(), duration::zero()));
+        port_.async_read_some(::asio::buffer(in.data(), in.size()),
+                              [&](std::error_code ec, std::size_t n) {
+                                  read_done = true;
+                                  read_ec = ec;
+                                  got = n;
+                                  timer.cancel();
+                              });
+        timer.async_wait([&](std::error_code ec) {
+            if (!ec && !read_done) port_.cancel(); // the deadline passed first
+        });
+        ctx_.restart();
+        ctx_.run();
+        if (got > 0) {
+            if (tap_) tap_(direction::rx, in.first(got), now());
+            return {got, {}};
+        }
+        if (read_ec == ::asio::error::operation_aborted) return {0, make_error_code(errc::timeout)};
+        return {0, read_ec ? read_ec : make_error_code(errc::transport)};
+    }
+
+    // Drops what the port has received and not yet delivered.
+    void discard_input() noexcept { ::tcflush(port_.native_handle(), TCIFLUSH); }
+
+private:
+    ::asio::io_context& ctx_;
+    ::asio::serial_port& port_;
+    tap_handler tap_;
+};
+
+static_assert(session_stream<serial_stream>);
+static_assert(discards_input<serial_stream>);
+
+} // namespace ferrule::host
