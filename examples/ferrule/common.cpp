@@ -40,6 +40,22 @@ std::string hex(std::span<const std::uint8_t> bytes) {
     return s;
 }
 
+// For text protocols (Dimetix): the bytes as text too, with CR and LF escaped.
+std::string ascii_suffix(std::span<const std::uint8_t> bytes) {
+    std::string text;
+    for (auto b : bytes) {
+        if (b == '\r')
+            text += "\\r";
+        else if (b == '\n')
+            text += "\\n";
+        else if (b >= 0x20 && b < 0x7F)
+            text += static_cast<char>(b);
+        else
+            return {};
+    }
+    return "   \"" + text + "\"";
+}
+
 std::unique_ptr<port_session> port_session::open(const common_options& o, const serial_format& f) {
     std::unique_ptr<port_session> p(new port_session());
     host::serial_options options;
@@ -54,9 +70,9 @@ std::unique_ptr<port_session> port_session::open(const common_options& o, const 
     if (o.trace) {
         const time_point t0 = p->opened_;
         p->stream_.set_tap([t0](host::direction d, std::span<const std::uint8_t> b, time_point t) {
-            fmt::print(stderr, "{:10.3f} ms {} {}\n",
+            fmt::print(stderr, "{:10.3f} ms {} {}{}\n",
                        std::chrono::duration<double, std::milli>(t - t0).count(),
-                       d == host::direction::tx ? "->" : "<-", hex(b));
+                       d == host::direction::tx ? "->" : "<-", hex(b), ascii_suffix(b));
         });
     }
     return p;

@@ -5,6 +5,7 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "ferrule/dimetix/reply.hpp"
 #include "ferrule/movilink/error.hpp"
 #include "ferrule/movilink/frame.hpp"
 #include "ferrule/movilink/process_data.hpp"
@@ -13,6 +14,7 @@ namespace ferrule::cli {
 namespace {
 
 namespace ml = ferrule::movilink;
+namespace dx = ferrule::dimetix;
 
 struct decode_options {
     std::string protocol;
@@ -155,14 +157,101 @@ int decode_movilink(const decode_options& o, std::span<const std::uint8_t> bytes
     return clean ? exit_ok : exit_device_error;
 }
 
+// Dimetix: lines ended by CR LF; each is a request (sN…) or an answer (gN…).
+int decode_dimetix(const decode_options& o, std::span<const std::uint8_t> bytes) {
+    bool clean = true;
+    dx::line_decoder d;
+    std::size_t pos = 0;
+    while (pos < bytes.size()) {
+        const std::size_t start = pos;
+        const auto s = d.feed(bytes.subspan(pos));
+        pos += s.consumed;
+        if (s.what == dx::line_decoder::status::need_more) {
+            print_skipped(o, start, bytes.subspan(start), "no CR LF at the end");
+            return exit_device_error;
+        }
+        if (s.what == dx::line_decoder::status::error) {
+            print_skipped(o, start, bytes.subspan(start, pos - start), "not a Dimetix line");
+            clean = false;
+            continue;
+        }
+        const auto line = d.line();
+        const std::string text(reinterpret_cast<const char*>(line.data()), line.size());
+        nlohmann::json j{{"offset", start}, {"text", text}};
+        std::string out = fmt::format("@{:<4} {:<34}", start, text);
+        if (!line.empty() && line[0] == 's') {
+            const auto c = dx::parse_request(line);
+            if (!c) {
+                j["error"] = c.error().message();
+                out += fmt::format(" request, not understood ({})", c.error().message());
+                clean = false;
+            } else {
+                j["direction"] = "request";
+                j["mnemonic"] = std::string(c->mnemonic.view());
+                j["params"] =
+                    std::vector<std::int32_t>(c->parameters().begin(), c->parameters().end());
+                if (c->id != dx::command::no_id) j["id"] = c->id;
+                out += fmt::format(" request to {} command '{}'",
+                                   c->id == dx::command::no_id ? std::string("all")
+                                                               : fmt::format("sensor {}", c->id),
+                                   c->mnemonic.view());
+                for (auto v : c->parameters()) out += fmt::format(" {}", v);
+            }
+        } else {
+            const auto r = dx::parse_reply(line);
+            if (!r) {
+                j["error"] = r.error().message();
+                out += fmt::format(" not an answer ({})", r.error().message());
+                clean = false;
+            } else {
+                j["direction"] = "answer";
+                j["id"] = r->id;
+                j["mnemonic"] = std::string(r->mnemonic.view());
+                j["values"] =
+                    std::vector<std::int32_t>(r->value_span().begin(), r->value_span().end());
+                switch (r->kind) {
+                case dx::reply_kind::startup_or_ack:
+                    out += fmt::format(" answer of sensor {}: ok / startup", r->id);
+                    break;
+                case dx::reply_kind::set_ack:
+                    out += fmt::format(" answer of sensor {}: '{}' set", r->id, r->mnemonic.view());
+                    break;
+                case dx::reply_kind::value:
+                    out += fmt::format(" answer of sensor {} to '{}':", r->id, r->mnemonic.view());
+                    for (auto v : r->value_span()) out += fmt::format(" {}", v);
+                    if (r->mnemonic.view() == "g" && r->count > 0)
+                        out += fmt::format(" (distance {:.1f} mm)", r->values[0] / 10.0);
+                    break;
+                case dx::reply_kind::error: {
+                    const auto ec = dx::make_device_error(r->error_code);
+                    j["error_code"] = r->error_code;
+                    j["error"] = ec.message();
+                    out += fmt::format(" ERROR of sensor {}: {}", r->id, ec.message());
+                    break;
+                }
+                }
+                if (r->buffer_status >= 0) {
+                    j["buffer_status"] = r->buffer_status;
+                    out += fmt::format(", buffer status {}", r->buffer_status);
+                }
+            }
+        }
+        if (o.json)
+            fmt::print("{}\n", j.dump());
+        else
+            fmt::print("{}\n", out);
+    }
+    return clean ? exit_ok : exit_device_error;
+}
+
 } // namespace
 
 void add_decode(CLI::App& app, int& exit_status) {
     auto* sub = app.add_subcommand("decode", "split captured bytes into frames and decode them");
     auto o = std::make_shared<decode_options>();
-    sub->add_option("protocol", o->protocol, "movilink")
+    sub->add_option("protocol", o->protocol, "movilink or dimetix")
         ->required()
-        ->check(CLI::IsMember({"movilink"}));
+        ->check(CLI::IsMember({"movilink", "dimetix"}));
     sub->add_option("bytes", o->hex, "hex bytes, e.g. 02 01 05 00 06 3A 98 01 F4 57");
     sub->add_option("--file", o->file, "binary capture file instead of hex bytes");
     sub->add_flag("--json", o->json, "one JSON object per frame");
@@ -181,7 +270,8 @@ void add_decode(CLI::App& app, int& exit_status) {
             exit_status = exit_usage;
             return;
         }
-        exit_status = decode_movilink(*o, bytes);
+        exit_status =
+            o->protocol == "dimetix" ? decode_dimetix(*o, bytes) : decode_movilink(*o, bytes);
     });
 }
 

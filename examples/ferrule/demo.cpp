@@ -7,6 +7,8 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "ferrule/asio/pty_server.hpp"
+#include "ferrule/dimetix/access.hpp"
+#include "ferrule/dimetix/sim_sensor.hpp"
 #include "ferrule/movilink/access.hpp"
 #include "ferrule/movilink/process_data.hpp"
 #include "ferrule/movilink/sim_station.hpp"
@@ -15,6 +17,7 @@ namespace ferrule::cli {
 namespace {
 
 namespace ml = ferrule::movilink;
+namespace dx = ferrule::dimetix;
 using namespace std::chrono_literals;
 
 // A pty_server on its own thread; pause() stops it so the demo can change a device.
@@ -44,7 +47,56 @@ struct demo_options {
 
 int fail(const char* what, std::error_code ec) {
     fmt::print("  {} failed: {}\n", what, ec.message());
-    return ec.category() == ml::device_category() ? exit_device_error : exit_transport;
+    const bool device =
+        ec.category() == ml::device_category() || ec.category() == dx::device_category();
+    return device ? exit_device_error : exit_transport;
+}
+
+// A D-Series sensor on its own pty: connect, measure ten times, and a measurement error.
+int sensor_part(const demo_options& d) {
+    dx::sim::d_series_config cfg;
+    cfg.id = 0; // the factory ID
+    cfg.shape = dx::sim::profile::ramp;
+    cfg.distance = 12'345; // 1234.5 mm, moving away at 20 mm/s, +-0.3 mm noise
+    cfg.slope = 200;
+    cfg.noise = 3;
+    cfg.measurement_time = 60ms;
+    dx::sim::d_series sensor(cfg);
+    host::pty_server<dx::sim::d_series> line;
+    if (auto ec = line.open()) return fail("openpty", ec);
+    line.add(sensor);
+    sensor.power_on(host::steady_now());
+    background_server<dx::sim::d_series> server(line);
+
+    fmt::print("\n5. A simulated Dimetix D-Series laser distance sensor (ID 0, 19200 7E1) on {}\n",
+               line.path());
+    common_options o;
+    o.port = line.path();
+    o.trace = d.trace;
+    const auto port = port_session::open(o, dx::default_format);
+    if (!port) return exit_transport;
+    auto& stream = port->stream();
+    dx::sensor s;
+    if (auto ec = dx::connect(stream, s, 0)) return fail("connect (sNc until g0?)", ec);
+    fmt::print("  connected: sNc answered with g0? (the paper's start-up)\n");
+    for (int i = 1; i <= 10; ++i) {
+        const auto m = dx::measure(stream, s, 0);
+        if (!m) return fail("measure", m.error());
+        fmt::print("  measurement {:2}: {:8.1f} mm\n", i, m->distance / 10.0);
+    }
+    const auto t = dx::temperature(stream, s, 0);
+    if (!t) return fail("temperature", t.error());
+    fmt::print("  sensor temperature {:.1f} degC\n", *t / 10.0);
+    server.pause();
+    sensor.inject_error(255); // the target leaves the beam
+    server.resume();
+    const auto lost = dx::measure(stream, s, 0);
+    fmt::print("  with the target gone: {}\n",
+               lost ? "unexpectedly measured" : lost.error().message());
+    const auto again = dx::measure(stream, s, 0);
+    if (!again) return fail("measure", again.error());
+    fmt::print("  and back: {:.1f} mm\n", again->distance / 10.0);
+    return exit_ok;
 }
 
 int run_demo(const demo_options& d) {
@@ -146,9 +198,9 @@ int run_demo(const demo_options& d) {
                silent ? "unexpectedly answered" : silent.error().message(), m.attempts());
 
     const auto& s = m.stats();
-    fmt::print("\nmaster: {} transactions, {} succeeded, {} failed, {} resends\n", s.transactions,
-               s.succeeded, s.failed, s.resends);
-    return exit_ok;
+    fmt::print("  MOVILINK master: {} transactions, {} succeeded, {} failed, {} resends\n",
+               s.transactions, s.succeeded, s.failed, s.resends);
+    return sensor_part(d);
 }
 
 } // namespace

@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", "ferrule 0.1.0");
     int exit_status = ferrule::cli::exit_ok;
     ferrule::cli::add_movilink(app, exit_status);
+    ferrule::cli::add_dimetix(app, exit_status);
     ferrule::cli::add_decode(app, exit_status);
     ferrule::cli::add_demo(app, exit_status);
     try {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "ferrule/asio/pty_server.hpp"
+#include "ferrule/dimetix/sim_sensor.hpp"
 #include "ferrule/movilink/sim_station.hpp"
 
 namespace {
@@ -21,6 +22,12 @@ extern "C" void on_signal(int) {
 
 struct sim_options {
     std::vector<unsigned> addresses;
+    // Dimetix sensors
+    double distance_mm = 1234.5;
+    double noise_mm = 0;
+    double slope_mm_s = 0;
+    unsigned measurement_ms = 100;
+    int error = 0;
     std::string link;
     double drop = 0;
     double corrupt = 0;
@@ -37,8 +44,9 @@ ferrule::host::pty_faults faults(const sim_options& o) {
     return f;
 }
 
-template <class Station>
-int serve(const sim_options& o, std::deque<Station>& stations, const char* what) {
+// `prepare(stations)` runs once the pty is open, before serving.
+template <class Station, class Prepare>
+int serve(const sim_options& o, std::deque<Station>& stations, const char* what, Prepare prepare) {
     ferrule::host::pty_server<Station> server(faults(o));
     if (auto ec = server.open()) {
         fmt::print(stderr, "ferrule-sim: openpty: {}\n", ec.message());
@@ -51,6 +59,7 @@ int serve(const sim_options& o, std::deque<Station>& stations, const char* what)
             return 3;
         }
     }
+    prepare(stations);
     fmt::print("{}\n", o.link.empty() ? server.path() : o.link);
     fmt::print(stderr, "ferrule-sim: {} on {}{}{}; Ctrl-C to stop\n", what, server.path(),
                o.link.empty() ? "" : " (link ", o.link.empty() ? "" : o.link + ")");
@@ -92,7 +101,41 @@ int main(int argc, char** argv) {
             cfg.address = static_cast<std::uint8_t>(a);
             drives.emplace_back(cfg);
         }
-        rc = serve(o, drives, "MOVITRAC B simulation");
+        rc = serve(o, drives, "MOVITRAC B simulation", [](auto&) {});
+    });
+
+    auto* dx = app.add_subcommand("dimetix", "Dimetix D-Series laser distance sensors on one line");
+    add_common(*dx, o, "sensor ID (0-99); repeat for several sensors on the line (default 0)");
+    dx->add_option("--distance", o.distance_mm, "distance in mm (at start, for --slope)")
+        ->capture_default_str();
+    dx->add_option("--slope", o.slope_mm_s, "distance change in mm/s");
+    dx->add_option("--noise", o.noise_mm, "uniform noise in +-mm");
+    dx->add_option("--measurement-time", o.measurement_ms,
+                   "ms per measurement (the sensor: 50-4000)")
+        ->capture_default_str();
+    dx->add_option("--error", o.error, "the first measurement fails with this code (e.g. 255)");
+    dx->callback([&] {
+        if (o.addresses.empty()) o.addresses.push_back(0);
+        namespace dsim = ferrule::dimetix::sim;
+        std::deque<dsim::d_series> sensors;
+        for (unsigned a : o.addresses) {
+            dsim::d_series_config cfg;
+            cfg.id = static_cast<std::uint8_t>(a);
+            cfg.distance = static_cast<std::int32_t>(o.distance_mm * 10);
+            cfg.slope = static_cast<std::int32_t>(o.slope_mm_s * 10);
+            cfg.shape = o.slope_mm_s != 0 ? dsim::profile::ramp : dsim::profile::constant;
+            cfg.noise = static_cast<std::int32_t>(o.noise_mm * 10);
+            cfg.seed = o.seed + a;
+            cfg.measurement_time = std::chrono::milliseconds(o.measurement_ms);
+            sensors.emplace_back(cfg);
+        }
+        rc = serve(o, sensors, "Dimetix D-Series simulation", [&](auto& all) {
+            // Power-up: each sensor sends its startup string gN? when it is ready (S1 §8.1.5).
+            for (auto& s : all) {
+                s.power_on(ferrule::host::steady_now());
+                if (o.error) s.inject_error(o.error);
+            }
+        });
     });
 
     std::signal(SIGINT, on_signal);
