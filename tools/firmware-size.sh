@@ -8,7 +8,7 @@
 # on stderr, largest last.
 #   tools/firmware-size.sh build/firmware/examples/firmware/movilink_master.elf 'ferrule::movilink::'
 # MOVILINK codec + master session (no cyclic layer, no error-message texts):
-#   tools/firmware-size.sh <elf> 'ferrule::' 'ferrule::movilink::cyclic::|_category_t::'
+#   tools/firmware-size.sh <elf> 'ferrule::' 'ferrule::movilink::cyclic::|_category_t::|^board::'
 # NM overrides the nm binary (default arm-none-eabi-nm).
 set -euo pipefail
 
