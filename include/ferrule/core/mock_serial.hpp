@@ -198,6 +198,63 @@ private:
 static_assert(session_stream<mock_serial>);
 static_assert(discards_input<mock_serial>);
 
+// Faults a simulated device applies to its next replies on a mock_serial line: leave them
+// out (the master sees a timeout), flip bits of one byte, or send them later. Each knob acts
+// on the next k replies. The protocols' simulated buses (movilink::sim::bus,
+// dimetix::sim::bus) put their devices' replies on the line through deliver().
+class reply_faults {
+public:
+    static constexpr std::size_t max_reply = 256;
+
+    void drop_replies(unsigned k) noexcept { drop_ = k; }
+    void corrupt_replies(unsigned k, std::size_t byte_index, std::uint8_t mask = 0xFF) noexcept {
+        corrupt_ = k;
+        corrupt_index_ = byte_index;
+        corrupt_mask_ = mask;
+    }
+    void delay_replies(unsigned k, duration extra) noexcept {
+        delay_ = k;
+        extra_delay_ = extra;
+    }
+
+    std::size_t replies_sent() const noexcept { return sent_; } // put on the line
+    std::size_t replies_dropped() const noexcept { return dropped_; }
+
+    // Puts `reply` (at most max_reply bytes) on the line at `at`, as the knobs say.
+    void deliver(mock_serial& line, std::span<const std::uint8_t> reply, time_point at) {
+        if (drop_ > 0) {
+            --drop_;
+            ++dropped_;
+            return;
+        }
+        std::array<std::uint8_t, max_reply> buf{};
+        const std::size_t n = std::min(reply.size(), buf.size());
+        std::copy_n(reply.begin(), n, buf.begin());
+        if (corrupt_ > 0) {
+            --corrupt_;
+            if (corrupt_index_ < n)
+                buf[corrupt_index_] =
+                    static_cast<std::uint8_t>(buf[corrupt_index_] ^ corrupt_mask_);
+        }
+        if (delay_ > 0) {
+            --delay_;
+            at += extra_delay_;
+        }
+        line.inject(std::span<const std::uint8_t>(buf.data(), n), at);
+        ++sent_;
+    }
+
+private:
+    unsigned drop_ = 0;
+    unsigned corrupt_ = 0;
+    std::size_t corrupt_index_ = 0;
+    std::uint8_t corrupt_mask_ = 0xFF;
+    unsigned delay_ = 0;
+    duration extra_delay_{};
+    std::size_t sent_ = 0;
+    std::size_t dropped_ = 0;
+};
+
 // A peer that follows a script: for each request, check the bytes and answer.
 struct script_step {
     std::span<const std::uint8_t> expect{}; // empty: accept any request

@@ -23,8 +23,9 @@
 
 namespace ferrule::movilink::sim {
 
+// Fault knobs (drop / corrupt / delay the next replies): see ferrule::reply_faults.
 template <std::size_t N>
-class bus final : public mock_peer {
+class bus final : public mock_peer, public reply_faults {
 public:
     // A station at the end of the line; nullptr when all N places are taken.
     station* add(const slave_config& slave_cfg = {}, const movitrac_b_config& drive_cfg = {}) {
@@ -42,21 +43,6 @@ public:
     void advance(time_point now) noexcept {
         for (auto& st : active()) st.drive.advance(now);
     }
-
-    // --- fault knobs ---------------------------------------------------------------------
-    void drop_replies(unsigned k) noexcept { drop_ = k; }
-    void corrupt_replies(unsigned k, std::size_t byte_index, std::uint8_t mask = 0xFF) noexcept {
-        corrupt_ = k;
-        corrupt_index_ = byte_index;
-        corrupt_mask_ = mask;
-    }
-    void delay_replies(unsigned k, duration extra) noexcept {
-        delay_ = k;
-        extra_delay_ = extra;
-    }
-
-    std::size_t replies_sent() const noexcept { return sent_; } // put on the line
-    std::size_t replies_dropped() const noexcept { return dropped_; }
 
     // --- mock_peer -----------------------------------------------------------------------
     void on_receive(mock_serial&, std::span<const std::uint8_t> bytes, time_point end) override {
@@ -80,38 +66,8 @@ private:
     std::span<station> active() noexcept { return {stations_.data(), size_}; }
     std::span<const station> active() const noexcept { return {stations_.data(), size_}; }
 
-    void deliver(mock_serial& line, std::span<const std::uint8_t> reply, time_point at) {
-        if (drop_ > 0) {
-            --drop_;
-            ++dropped_;
-            return;
-        }
-        std::array<std::uint8_t, max_telegram_size> buf{};
-        std::copy(reply.begin(), reply.end(), buf.begin());
-        if (corrupt_ > 0) {
-            --corrupt_;
-            if (corrupt_index_ < reply.size())
-                buf[corrupt_index_] =
-                    static_cast<std::uint8_t>(buf[corrupt_index_] ^ corrupt_mask_);
-        }
-        if (delay_ > 0) {
-            --delay_;
-            at += extra_delay_;
-        }
-        line.inject(std::span<const std::uint8_t>(buf.data(), reply.size()), at);
-        ++sent_;
-    }
-
     std::array<station, N> stations_{};
     std::size_t size_ = 0;
-    unsigned drop_ = 0;
-    unsigned corrupt_ = 0;
-    std::size_t corrupt_index_ = 0;
-    std::uint8_t corrupt_mask_ = 0xFF;
-    unsigned delay_ = 0;
-    duration extra_delay_{};
-    std::size_t sent_ = 0;
-    std::size_t dropped_ = 0;
 };
 
 } // namespace ferrule::movilink::sim
