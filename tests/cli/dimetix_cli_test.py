@@ -4,49 +4,17 @@
 usage: dimetix_cli_test.py <ferrule> <ferrule-sim>
 Each check prints 'ok <name>' or 'FAIL <name>: why'; the last line is 'N passed, M failed'.
 """
-import json
-import os
 import subprocess
 import sys
-import tempfile
+
+from harness import Sim, check, json_lines, summary
 
 ferrule, ferrule_sim = sys.argv[1], sys.argv[2]
-passed = failed = 0
-
-
-def check(name, cond, why=""):
-    global passed, failed
-    if cond:
-        passed += 1
-        print(f"ok {name}")
-    else:
-        failed += 1
-        print(f"FAIL {name}: {why}")
 
 
 def run(*args, timeout=30):
     p = subprocess.run([ferrule, "dimetix", *args], capture_output=True, text=True, timeout=timeout)
     return p.returncode, p.stdout, p.stderr
-
-
-def json_lines(out):
-    return [json.loads(line) for line in out.splitlines() if line.strip()]
-
-
-class Sim:
-    def __init__(self, *args):
-        self.dir = tempfile.mkdtemp(prefix="ferrule-sim-")
-        self.link = os.path.join(self.dir, "sensors")
-        self.proc = subprocess.Popen([ferrule_sim, "dimetix", "--link", self.link, *args],
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        first = self.proc.stdout.readline().strip()
-        if first != self.link or not os.path.islink(self.link):
-            raise RuntimeError(f"ferrule-sim did not come up: {first!r}")
-
-    def stop(self):
-        self.proc.terminate()
-        self.proc.wait(timeout=10)
-        return self.proc.stderr.read()
 
 
 # Golden requests of protocols/dimetix.md §8.1, without opening anything.
@@ -58,7 +26,7 @@ for args, want in [(["measure"], "s0g"), (["config", "set", "v", "0", "100000"],
           and out.split("   ")[0] == " ".join(f"{b:02X}" for b in (want + "\r\n").encode()), out)
 
 # Two sensors on one line (IDs 0 and 3), 1234.5 mm, fixed.
-sim = Sim("--address", "0", "--address", "3", "--distance", "1234.5")
+sim = Sim(ferrule_sim, "dimetix", "sensors", "--address", "0", "--address", "3", "--distance", "1234.5")
 port = ["--port", sim.link]
 
 rc, out, _ = run("measure", "--count", "3", "--json", *port)
@@ -104,7 +72,7 @@ check("trace shows the ASCII lines", rc == 0 and "-> 73 30 67 0D 0A" in err and 
 sim.stop()
 
 # A sensor whose first measurement fails with @E255 (signal too low): exit 1, the manual's text.
-sim = Sim("--error", "255")
+sim = Sim(ferrule_sim, "dimetix", "sensors", "--error", "255")
 rc, out, _ = run("measure", "--json", "--port", sim.link)
 j = json_lines(out)
 check("@E255 is a device error", rc == 1 and j[0]["ok"] is False and j[0]["category"] == "dimetix"
@@ -121,5 +89,4 @@ j = json_lines(p.stdout)
 check("decode dimetix", p.returncode == 0 and len(j) == 4 and j[0]["direction"] == "request"
       and j[1]["values"] == [234, 8384, 254] and j[2]["error_code"] == 255 and j[3]["buffer_status"] == 1, p.stdout)
 
-print(f"{passed} passed, {failed} failed")
-sys.exit(1 if failed else 0)
+sys.exit(summary())

@@ -4,25 +4,12 @@
 usage: movilink_cli_test.py <ferrule> <ferrule-sim>
 Each check prints 'ok <name>' or 'FAIL <name>: why'; the last line is 'N passed, M failed'.
 """
-import json
-import os
 import subprocess
 import sys
-import tempfile
-import time
+
+from harness import Sim, check, json_lines, summary
 
 ferrule, ferrule_sim = sys.argv[1], sys.argv[2]
-passed = failed = 0
-
-
-def check(name, cond, why=""):
-    global passed, failed
-    if cond:
-        passed += 1
-        print(f"ok {name}")
-    else:
-        failed += 1
-        print(f"FAIL {name}: {why}")
 
 
 def run(*args, timeout=30):
@@ -30,27 +17,7 @@ def run(*args, timeout=30):
     return p.returncode, p.stdout, p.stderr
 
 
-def json_lines(out):
-    return [json.loads(line) for line in out.splitlines() if line.strip()]
-
-
-class Sim:
-    def __init__(self, *args):
-        self.dir = tempfile.mkdtemp(prefix="ferrule-sim-")
-        self.link = os.path.join(self.dir, "bus")
-        self.proc = subprocess.Popen([ferrule_sim, "movilink", "--link", self.link, *args],
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        first = self.proc.stdout.readline().strip()
-        if first != self.link or not os.path.islink(self.link):
-            raise RuntimeError(f"ferrule-sim did not come up: {first!r}")
-
-    def stop(self):
-        self.proc.terminate()
-        self.proc.wait(timeout=10)
-        return self.proc.stderr.read()
-
-
-sim = Sim("--address", "1", "--address", "2")
+sim = Sim(ferrule_sim, "movilink", "bus", "--address", "1", "--address", "2")
 port = ["--port", sim.link]
 
 # Golden vectors of protocols/movilink.md: the request bytes, without opening anything.
@@ -115,12 +82,11 @@ check("decode bad BCC", rc == 1 and "checksum mismatch" in out, out)
 print(sim.stop().strip().splitlines()[-1])
 
 # A lossy line: replies dropped or damaged, the master's resends get through.
-sim = Sim("--drop", "30", "--corrupt", "10", "--seed", "7")
+sim = Sim(ferrule_sim, "movilink", "bus", "--drop", "30", "--corrupt", "10", "--seed", "7")
 rc, out, err = run("movilink", "status", "--retries", "8", "--json", "--port", sim.link)
 j = json_lines(out)
 check("status over a lossy line", rc == 0 and j[0]["ready"] is True, out + err)
 stats = sim.stop().strip().splitlines()[-1]
 check("the simulator dropped or damaged replies", " 0 dropped, 0 corrupted" not in stats, stats)
 
-print(f"{passed} passed, {failed} failed")
-sys.exit(1 if failed else 0)
+sys.exit(summary())
