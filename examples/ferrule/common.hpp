@@ -66,6 +66,24 @@ private:
     time_point opened_{};
 };
 
+// What every protocol subcommand does around its work: the serial format from the options over
+// the manual's default, the port unless --dry-run, then fn(context). Context is the
+// protocol's: built from (options, format), with a `port` member. Returns the exit status.
+template <class Context, class Options>
+int run_on_port(const Options& o, const serial_format& manual_default, int (*fn)(Context&)) {
+    const auto f = resolve_format(o.common, manual_default);
+    if (!f) {
+        fmt::print(stderr, "ferrule: --format/--baud: {}\n", f.error().message());
+        return exit_usage;
+    }
+    Context c(o, *f);
+    if (!o.common.dry_run) {
+        c.port = port_session::open(o.common, *f);
+        if (!c.port) return exit_transport;
+    }
+    return fn(c);
+}
+
 // Prints one result: as a JSON object (--json) or as the text line given.
 void emit(const common_options& o, const nlohmann::json& j, const std::string& text);
 

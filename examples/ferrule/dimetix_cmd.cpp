@@ -267,21 +267,12 @@ void add_dimetix(CLI::App& app, int& exit_status) {
         sub->add_flag("--force-continuous", o->force,
                       "allow continuous output although several sensors may share the line");
         sub->callback([o, fn, &exit_status] {
-            const auto f = resolve_format(o->common, dx::default_format);
-            if (!f || o->common.address > dx::max_id) {
-                fmt::print(stderr, "ferrule: --format/--baud/--address out of range\n");
+            if (o->common.address > dx::max_id) {
+                fmt::print(stderr, "ferrule: --address: sensor IDs are 0-{}\n", dx::max_id);
                 exit_status = exit_usage;
                 return;
             }
-            context c(*o, *f);
-            if (!o->common.dry_run) {
-                c.port = port_session::open(o->common, *f);
-                if (!c.port) {
-                    exit_status = exit_transport;
-                    return;
-                }
-            }
-            exit_status = fn(c);
+            exit_status = run_on_port(*o, dx::default_format, fn);
         });
         return sub;
     };

@@ -276,23 +276,8 @@ void add_movilink(CLI::App& app, int& exit_status) {
     const auto add = [&](const char* name, const char* help, int (*fn)(context&)) {
         auto* sub = ml_app->add_subcommand(name, help);
         add_common_options(*sub, o->common, 1);
-        sub->callback([o, fn, &exit_status] {
-            const auto f = resolve_format(o->common, ml::default_format);
-            if (!f) {
-                fmt::print(stderr, "ferrule: --format/--baud: {}\n", f.error().message());
-                exit_status = exit_usage;
-                return;
-            }
-            context c(*o, *f);
-            if (!o->common.dry_run) {
-                c.port = port_session::open(o->common, *f);
-                if (!c.port) {
-                    exit_status = exit_transport;
-                    return;
-                }
-            }
-            exit_status = fn(c);
-        });
+        sub->callback(
+            [o, fn, &exit_status] { exit_status = run_on_port(*o, ml::default_format, fn); });
         return sub;
     };
 
