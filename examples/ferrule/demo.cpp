@@ -133,10 +133,10 @@ int run_demo(const demo_options& d) {
         std::uint16_t index;
     };
     for (const named p :
-         {named{"drive 1 P070 unit type", 1, ml::sim::parameter_index::p070_unit_type},
+         {named{"drive 1 P070 unit type", 1, ml::parameter_index::p070_unit_type},
           named{"drive 1 P014 heat sink temperature [degC]", 1,
-                ml::sim::parameter_index::p014_heat_sink_temperature},
-          named{"drive 2 P810 RS-485 address", 2, ml::sim::parameter_index::p810_rs485_address}}) {
+                ml::parameter_index::p014_heat_sink_temperature},
+          named{"drive 2 P810 RS-485 address", 2, ml::parameter_index::p810_rs485_address}}) {
         const auto v = ml::read_parameter(line, m, p.address, p.index);
         if (!v) return fail(p.text, v.error());
         fmt::print("  {:<44} = {} (0x{:08X})\n", p.text, static_cast<std::int32_t>(*v), *v);
@@ -193,7 +193,7 @@ int run_demo(const demo_options& d) {
     fmt::print(
         "  after the reset bit (control word 0x{:04X}): status word 0x{:04X}, fault bit {}\n",
         po[0], sw.value, sw.fault() ? 1 : 0);
-    const auto silent = ml::read_parameter(line, m, 7, ml::sim::parameter_index::p000_speed);
+    const auto silent = ml::read_parameter(line, m, 7, ml::parameter_index::p000_speed);
     fmt::print("  read from address 7, where no drive is: {} after {} requests\n",
                silent ? "unexpectedly answered" : silent.error().message(), m.attempts());
 

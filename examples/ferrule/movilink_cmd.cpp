@@ -6,6 +6,7 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "ferrule/movilink/access.hpp"
+#include "ferrule/movilink/parameters.hpp"
 #include "ferrule/movilink/process_data.hpp"
 
 namespace ferrule::cli {
@@ -14,13 +15,7 @@ namespace {
 namespace ml = ferrule::movilink;
 using namespace std::chrono_literals;
 
-// P000 speed, P004 output current, P010 inverter status, P014 heat sink temperature,
-// P094-P096 PO setpoints (SC01 §7.2; protocols/movilink.md §3.5).
-constexpr std::uint16_t p000_speed = 8318;
-constexpr std::uint16_t p004_output_current = 8321;
-constexpr std::uint16_t p010_inverter_status = 8310;
-constexpr std::uint16_t p014_heat_sink_temperature = 8327;
-constexpr std::uint16_t p094_po1_setpoint = 8455;
+using namespace ml::parameter_index;
 
 struct movilink_options {
     common_options common;
