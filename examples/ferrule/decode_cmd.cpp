@@ -88,11 +88,8 @@ void print_movilink_frame(const decode_options& o, std::size_t offset,
         // The factory mapping: PO1 control word / PI1 status word, word 2 speed.
         if (i == 0 && request) {
             const ml::control_word cw{t.pd[0]};
-            constexpr const char* commands[] = {"controller inhibit", "rapid stop", "stop",
-                                                "enable"};
-            text +=
-                fmt::format("  control word 1: {}{}", commands[static_cast<int>(cw.requested())],
-                            cw.reset() ? ", reset" : "");
+            text += fmt::format("  control word 1: {}{}", ml::name(cw.requested()),
+                                cw.reset() ? ", reset" : "");
         } else if (i == 0) {
             const ml::status_word sw{t.pd[0]};
             text +=

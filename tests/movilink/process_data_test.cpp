@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdint>
 #include <limits>
+#include <string_view>
 
 #include "ferrule/movilink/process_data.hpp"
 
@@ -107,4 +108,11 @@ TEST_CASE("position: 4096 increments per revolution, high word first", "[movilin
     CHECK(revolutions_to_increments(0.5 / 4096) == 1);
     CHECK(revolutions_to_increments(1e9) == 2147483647);
     CHECK(revolutions_to_increments(-1e9) == -2147483647 - 1);
+}
+
+TEST_CASE("control word 1: the manual's names of the commands", "[movilink][process_data]") {
+    CHECK(std::string_view(name(control_word::enable().requested())) == "enable");
+    CHECK(std::string_view(name(control_word::stop().requested())) == "stop");
+    CHECK(std::string_view(name(control_word::rapid_stop().requested())) == "rapid stop");
+    CHECK(std::string_view(name(control_word::inhibit().requested())) == "controller inhibit");
 }

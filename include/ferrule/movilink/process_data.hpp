@@ -40,6 +40,17 @@ struct control_word {
     friend constexpr bool operator==(control_word, control_word) = default;
 };
 
+// The manual's name of what the basic control block asks for (MTB 5947079179).
+constexpr const char* name(control_word::command c) noexcept {
+    switch (c) {
+    case control_word::command::inhibit: return "controller inhibit";
+    case control_word::command::rapid_stop: return "rapid stop";
+    case control_word::command::stop: return "stop";
+    case control_word::command::enable: return "enable";
+    }
+    return "unknown";
+}
+
 // Status word 1 (MTB 5947088779; MDXB p.93).
 struct status_word {
     static constexpr std::uint16_t output_stage_enabled_bit = 0x0001;
