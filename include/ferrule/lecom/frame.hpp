@@ -82,13 +82,16 @@ constexpr std::size_t put_text(const code_address& c, const value* v, bool fault
 
 // Writes a telegram (request or reply) to `out`. Checks what the protocol cannot express:
 // an address beyond 99, a standard code beyond 6229 or with a subcode, a RECEIVE to a group
-// address (nothing would answer it, S1 p.8-24).
+// address (nothing would answer it, S1 p.8-24), a value the factories of value.hpp would not
+// have made.
 inline result<std::size_t> encode(const frame& f, std::span<std::uint8_t> out) noexcept {
     std::array<std::uint8_t, max_frame_length> buf{};
     std::uint8_t* p = buf.data();
     const bool has_code =
         f.kind != frame_kind::ack && f.kind != frame_kind::nak && f.kind != frame_kind::eot;
     if (has_code && !is_valid(f.code)) return errc::invalid_argument;
+    const bool has_value = f.kind == frame_kind::send || f.kind == frame_kind::data;
+    if (has_value && !detail::is_encodable(f.value)) return errc::invalid_argument;
     if (is_request(f.kind) && !is_valid_address(f.address)) return errc::invalid_argument;
     switch (f.kind) {
     case frame_kind::receive:
@@ -246,7 +249,7 @@ public:
             case state::request_address:
                 if (!is_digit(b)) return cut(i);
                 push(b);
-                state_ = state::request_body;
+                if (size_ == 3) state_ = state::request_body; // EOT AD1 AD2
                 continue;
             case state::request_body:
                 if (size_ == 3 && b == stx) {
@@ -254,12 +257,13 @@ public:
                     state_ = state::text;
                     continue;
                 }
+                if (size_ == buf_.size()) return cut(i); // no room left, not even for ENQ
                 if (b == enq && size_ > 3) {
                     push(b);
                     state_ = state::idle;
                     return yield(i + 1);
                 }
-                if (!is_text(b) || size_ == buf_.size()) return cut(i);
+                if (!is_text(b)) return cut(i);
                 push(b);
                 continue;
             case state::text:

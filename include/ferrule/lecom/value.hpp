@@ -107,6 +107,26 @@ inline result<value> octets(std::span<const std::uint8_t> b) noexcept {
     return out;
 }
 
+namespace detail {
+// Could the factories above have made `v`? encode_value() needs this: a hand-built value
+// with 40 hex digits or 30 octets would not fit max_value_length.
+constexpr bool is_encodable(const value& v) noexcept {
+    switch (v.format) {
+    case value_format::decimal: return v.digits <= value::max_decimals;
+    case value_format::hex:
+        return (v.digits == 2 || v.digits == 4 || v.digits == 8) &&
+               (v.digits == 8 || v.hex >> (4 * v.digits) == 0);
+    case value_format::string:
+        if (v.size > value::max_string) return false;
+        for (std::size_t i = 0; i < v.size; ++i)
+            if (!is_visible(v.bytes[i])) return false;
+        return true;
+    case value_format::octets: return v.size <= value::max_octets;
+    }
+    return false;
+}
+} // namespace detail
+
 // Longest value text: 'O' + two digits per octet.
 inline constexpr std::size_t max_value_length = 1 + 2 * value::max_octets;
 
