@@ -6,11 +6,15 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <deque>
+#include <string>
 #include <vector>
 
 #include "ferrule/asio/pty_server.hpp"
 #include "ferrule/dimetix/sim_sensor.hpp"
+#include "ferrule/lecom/constants.hpp"
+#include "ferrule/lecom/sim_station.hpp"
 #include "ferrule/movilink/sim_station.hpp"
 
 namespace {
@@ -28,6 +32,10 @@ struct sim_options {
     double slope_mm_s = 0;
     unsigned measurement_ms = 100;
     int error = 0;
+    // LECOM drives
+    std::string family = "4900";
+    bool bare_replies = false;
+    unsigned trip = 0;
     std::string link;
     double drop = 0;
     double corrupt = 0;
@@ -135,6 +143,51 @@ int main(int argc, char** argv) {
                 s.power_on(ferrule::host::steady_now());
                 if (o.error) s.inject_error(o.error);
             }
+        });
+    });
+
+    auto* lc = app.add_subcommand("lecom", "Lenze drives (4900 DC, 8200) on one LECOM-B line");
+    add_common(*lc, o,
+               "unit address C0009 (1-99 except 10, 20 ... 90); repeat or give a list for "
+               "several drives on the line (default 1)");
+    lc->get_option("--address")
+        ->delimiter(',')
+        ->check(CLI::Validator(
+            [](std::string& s) -> std::string {
+                const int a = std::atoi(s.c_str());
+                return ferrule::lecom::is_unit_address(static_cast<std::uint8_t>(a)) && a <= 99
+                           ? ""
+                           : "not a unit address: 1-99 except 10, 20 ... 90 (S1 p.6-3)";
+            },
+            "ADDRESS"));
+    lc->add_option("--family", o.family, "drive family: code table and C0200")
+        ->check(CLI::IsMember({"4900", "8200"}))
+        ->capture_default_str();
+    lc->add_flag("--bare-replies", o.bare_replies,
+                 "4900 style: bare EOT for an unknown code, bare NAK for a checksum fault");
+    lc->add_option("--trip", o.trip, "start with this fault number in C0067 (reset: C0043 = 0)")
+        ->check(CLI::Range(1, 65535));
+    lc->callback([&] {
+        if (o.addresses.empty()) o.addresses.push_back(1);
+        namespace lsim = ferrule::lecom::sim;
+        // LECOM frames telegrams by their characters, not by gaps: a pty needs no line baud.
+        std::deque<lsim::station> drives;
+        for (unsigned a : o.addresses) {
+            for (const auto& d : drives)
+                if (d.session.address() == a)
+                    throw CLI::ValidationError("--address", fmt::format("{} is given twice", a));
+            ferrule::lecom::slave_config cfg;
+            cfg.address = static_cast<std::uint8_t>(a);
+            cfg.bare_replies = o.bare_replies;
+            lsim::drive_config drive;
+            drive.family = o.family == "8200" ? lsim::drive_family::lenze_8200
+                                              : lsim::drive_family::lenze_4900;
+            drives.emplace_back(cfg, drive);
+        }
+        const std::string what = fmt::format("Lenze {} LECOM simulation", o.family);
+        rc = serve(o, drives, what.c_str(), [&](auto& all) {
+            if (o.trip)
+                for (auto& d : all) d.drive.trip(static_cast<std::uint16_t>(o.trip));
         });
     });
 
