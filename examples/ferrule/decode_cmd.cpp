@@ -5,23 +5,27 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "decode.hpp"
 #include "ferrule/dimetix/reply.hpp"
 #include "ferrule/movilink/error.hpp"
 #include "ferrule/movilink/frame.hpp"
 #include "ferrule/movilink/process_data.hpp"
 
 namespace ferrule::cli {
+
+void print_skipped(const decode_options& o, std::size_t offset, std::span<const std::uint8_t> b,
+                   const std::string& reason) {
+    if (o.json)
+        fmt::print("{}\n",
+                   nlohmann::json{{"offset", offset}, {"bytes", hex(b)}, {"error", reason}}.dump());
+    else
+        fmt::print("@{:<4} not a telegram ({}): {}\n", offset, reason, hex(b));
+}
+
 namespace {
 
 namespace ml = ferrule::movilink;
 namespace dx = ferrule::dimetix;
-
-struct decode_options {
-    std::string protocol;
-    std::vector<std::string> hex;
-    std::string file;
-    bool json = false;
-};
 
 // "02 01 05", "020105", "02:01:05" and "0x02 0x01" all read the same.
 bool parse_hex(const std::vector<std::string>& words, std::vector<std::uint8_t>& out) {
@@ -106,15 +110,6 @@ void print_movilink_frame(const decode_options& o, std::size_t offset,
         fmt::print("{}\n", j.dump());
     else
         fmt::print("{}", text);
-}
-
-void print_skipped(const decode_options& o, std::size_t offset, std::span<const std::uint8_t> b,
-                   const std::string& reason) {
-    if (o.json)
-        fmt::print("{}\n",
-                   nlohmann::json{{"offset", offset}, {"bytes", hex(b)}, {"error", reason}}.dump());
-    else
-        fmt::print("@{:<4} not a telegram ({}): {}\n", offset, reason, hex(b));
 }
 
 // A capture has no idle gaps, so telegrams are taken back to back: after each telegram the
@@ -246,9 +241,9 @@ int decode_dimetix(const decode_options& o, std::span<const std::uint8_t> bytes)
 void add_decode(CLI::App& app, int& exit_status) {
     auto* sub = app.add_subcommand("decode", "split captured bytes into frames and decode them");
     auto o = std::make_shared<decode_options>();
-    sub->add_option("protocol", o->protocol, "movilink or dimetix")
+    sub->add_option("protocol", o->protocol, "movilink, dimetix or lecom")
         ->required()
-        ->check(CLI::IsMember({"movilink", "dimetix"}));
+        ->check(CLI::IsMember({"movilink", "dimetix", "lecom"}));
     sub->add_option("bytes", o->hex, "hex bytes, e.g. 02 01 05 00 06 3A 98 01 F4 57");
     sub->add_option("--file", o->file, "binary capture file instead of hex bytes");
     sub->add_flag("--json", o->json, "one JSON object per frame");
@@ -267,8 +262,12 @@ void add_decode(CLI::App& app, int& exit_status) {
             exit_status = exit_usage;
             return;
         }
-        exit_status =
-            o->protocol == "dimetix" ? decode_dimetix(*o, bytes) : decode_movilink(*o, bytes);
+        if (o->protocol == "dimetix")
+            exit_status = decode_dimetix(*o, bytes);
+        else if (o->protocol == "lecom")
+            exit_status = decode_lecom(*o, bytes);
+        else
+            exit_status = decode_movilink(*o, bytes);
     });
 }
 

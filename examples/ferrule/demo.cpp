@@ -9,15 +9,21 @@
 #include "ferrule/asio/pty_server.hpp"
 #include "ferrule/dimetix/access.hpp"
 #include "ferrule/dimetix/sim_sensor.hpp"
+#include "ferrule/lecom/access.hpp"
+#include "ferrule/lecom/poller.hpp"
+#include "ferrule/lecom/sim_station.hpp"
 #include "ferrule/movilink/access.hpp"
 #include "ferrule/movilink/process_data.hpp"
 #include "ferrule/movilink/sim_station.hpp"
+#include "lecom_text.hpp"
+#include "poll_loop.hpp"
 
 namespace ferrule::cli {
 namespace {
 
 namespace ml = ferrule::movilink;
 namespace dx = ferrule::dimetix;
+namespace lc = ferrule::lecom;
 using namespace std::chrono_literals;
 
 // A pty_server on its own thread; pause() stops it so the demo can change a device.
@@ -47,8 +53,9 @@ struct demo_options {
 
 int fail(const char* what, std::error_code ec) {
     fmt::print("  {} failed: {}\n", what, ec.message());
-    const bool device =
-        ec.category() == ml::device_category() || ec.category() == dx::device_category();
+    const bool device = ec.category() == ml::device_category() ||
+                        ec.category() == dx::device_category() ||
+                        ec.category() == lc::device_category();
     return device ? exit_device_error : exit_transport;
 }
 
@@ -96,6 +103,89 @@ int sensor_part(const demo_options& d) {
     const auto again = dx::measure(stream, s, 0);
     if (!again) return fail("measure", again.error());
     fmt::print("  and back: {:.1f} mm\n", again->distance / 10.0);
+    return exit_ok;
+}
+
+// Six Lenze 4900 DC drives on one LECOM-B line, as in the LECOM paper: parameters, a poll
+// of all six while they ramp, a broadcast stop, and the drives' error answers.
+int lecom_part(const demo_options& d) {
+    std::array<lc::sim::station, 6> drives;
+    host::pty_server<lc::sim::station> bus;
+    if (auto ec = bus.open()) return fail("openpty", ec);
+    for (std::size_t i = 0; i < drives.size(); ++i) {
+        lc::slave_config cfg;
+        cfg.address = static_cast<std::uint8_t>(i + 1);
+        drives[i] = lc::sim::station(cfg);
+        bus.add(drives[i]);
+    }
+    background_server<lc::sim::station> server(bus);
+
+    fmt::print("\n6. Six simulated Lenze 4900 DC drives (LECOM-B addresses 1-6, profile {}: "
+               "9600 8E1) on {}\n",
+               lc::lenze_4900.name, bus.path());
+    common_options o;
+    o.port = bus.path();
+    o.trace = d.trace;
+    const auto port = port_session::open(o, lc::lenze_4900.format);
+    if (!port) return exit_transport;
+    auto& line = port->stream();
+    lc::master m;
+
+    const auto id = lc::read(line, m, 1, lc::code(200));
+    if (!id) return fail("read C0200", id.error());
+    fmt::print("  drive 1 C0200 software id = {}\n", value_text(*id));
+    for (std::uint8_t a = 1; a <= 6; ++a) {
+        // A short ramp (C0012, seconds) so the demo shows it, then speed setpoints (C0046).
+        if (auto ec = lc::write(line, m, a, lc::code(12), *lc::decimal(1)))
+            return fail("write C0012", ec);
+        if (auto ec = lc::write(line, m, a, lc::code(46), *lc::decimal(250 * a)))
+            return fail("write C0046", ec);
+    }
+    fmt::print("  wrote C0012 = 1 s and C0046 = 250, 500, ... 1500 rpm to drives 1-6 (ACK each)\n");
+
+    lc::poller<6> p;
+    for (std::uint8_t a = 1; a <= 6; ++a) (void)p.add({a, lc::code(50)});
+    const auto show = [&] {
+        std::string row = "  C0050 actual speed [rpm]:";
+        for (std::size_t i = 0; i < 6; ++i)
+            row += p.state(i).valid ? fmt::format(" {:7.0f}", p.state(i).last.fixed / 1e4)
+                                    : "       -";
+        fmt::print("{}   (poll cycle {:.1f} ms on the pty)\n", row,
+                   std::chrono::duration<double, std::milli>(p.last_cycle_time()).count());
+    };
+    const auto until = line.now() + 1200ms;
+    if (auto ec = run_poller(line, p, 200ms, [&] {
+            if (p.cycles() > 0) show();
+            return line.now() < until;
+        }))
+        return fail("poll", ec);
+
+    fmt::print("  broadcast C0040 = 0 (controller inhibit) to address 00: no reply by design\n");
+    if (auto ec = lc::write(line, m, lc::broadcast_address, lc::code(40), *lc::decimal(0)))
+        return fail("broadcast", ec);
+    const auto stopped = p.cycles() + 2;
+    if (auto ec = run_poller(line, p, 50ms, [&] { return p.cycles() < stopped; }))
+        return fail("poll", ec);
+    show();
+
+    fmt::print("  faults:\n");
+    const auto missing = lc::read(line, m, 1, lc::code(999));
+    fmt::print("    read C0999 on drive 1: {}\n",
+               missing ? "unexpectedly answered" : missing.error().message());
+    const auto refused = lc::write(line, m, 1, lc::code(50), *lc::decimal(100));
+    fmt::print("    write read-only C0050 on drive 1: {}\n", refused ? refused.message() : "ACK");
+    server.pause();
+    drives[3].drive.trip(11);
+    server.resume();
+    const auto trip = lc::read(line, m, 4, lc::code(67));
+    if (!trip) return fail("read C0067", trip.error());
+    fmt::print("    drive 4 tripped: C0067 trip number = {}\n", value_text(*trip));
+    lc::master_config quick;
+    quick.response_timeout = 50ms;
+    lc::master short_wait(quick);
+    const auto absent = lc::read(line, short_wait, 7, lc::code(50));
+    fmt::print("    read from address 7, where no drive is: {} after {} requests\n",
+               absent ? "unexpectedly answered" : absent.error().message(), short_wait.attempts());
     return exit_ok;
 }
 
@@ -200,7 +290,8 @@ int run_demo(const demo_options& d) {
     const auto& s = m.stats();
     fmt::print("  MOVILINK master: {} transactions, {} succeeded, {} failed, {} resends\n",
                s.transactions, s.succeeded, s.failed, s.resends);
-    return sensor_part(d);
+    if (const int rc = sensor_part(d)) return rc;
+    return lecom_part(d);
 }
 
 } // namespace

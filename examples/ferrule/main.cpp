@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
     int exit_status = ferrule::cli::exit_ok;
     ferrule::cli::add_movilink(app, exit_status);
     ferrule::cli::add_dimetix(app, exit_status);
+    ferrule::cli::add_lecom(app, exit_status);
     ferrule::cli::add_decode(app, exit_status);
     ferrule::cli::add_demo(app, exit_status);
     try {
