@@ -6,9 +6,10 @@
 // clash, ID-less dg on a point-to-point line). Each runs for a bounded number of steps, each
 // one of: next(now), advance virtual time (small, large, or to the announced deadline),
 // random bytes, an answer built from the command (right, other ID, error, startup string,
-// tracking line, with a flipped byte or a dropped CR; split into chunks), a transport error.
-// Then it is drained with no input. Every complete line the session saw is also given to a
-// separate line_decoder and parse_reply(). Seeds: fuzz/corpus/dimetix_reply/.
+// tracking line, sometimes a 1-digit ID with a leading zero, with a flipped byte or a dropped
+// CR; split into chunks), a transport error. Then it is drained with no input. Every complete
+// line the session saw is also given to a separate line_decoder, parse_reply() and the
+// session's reading of a line. Seeds: fuzz/corpus/dimetix_reply/.
 //
 // Invariants (violation -> __builtin_trap):
 //   * line_decoder: every consumed chunk makes progress; lines hold printable ASCII only,
@@ -17,6 +18,11 @@
 //   * parse_reply(): a parsed reply is consistent (kind vs. mnemonic / values / error code,
 //     buffer status 0..2, at most max_values values); printing it back and parsing again
 //     gives the same reply; a line that is not 'g' + digits is refused
+//   * the session's reading of a line (detail::read_answer) against the command being run
+//     agrees with the full parse (detail::parse_into) and check_answers()'s rule
+//     (detail::classify): the same lines are answers and device errors, an answer reads as
+//     answered() gives it, a device error as the parsed gN@Ezzz line, a line it calls
+//     malformed is refused by the full parse too
 //   * session: every send is the encoded command; sends <= 1 + retries (connect: attempts);
 //     `wait` deadlines lie in the future; no `done` before the deadline unless an answer or
 //     a malformed line came; with no input it is done within (1 + retries) timeouts
@@ -87,6 +93,35 @@ writer print(const reply& r) {
     return w;
 }
 
+void check_same(const reply& a, const reply& b) {
+    FERRULE_CHECK(a.id == b.id && a.id_digits == b.id_digits && a.kind == b.kind);
+    FERRULE_CHECK(a.mnemonic == b.mnemonic && a.count == b.count && a.truncated == b.truncated);
+    FERRULE_CHECK(a.error_code == b.error_code && a.buffer_status == b.buffer_status);
+    for (std::size_t i = 0; i < a.count; ++i) FERRULE_CHECK(a.values[i] == b.values[i]);
+}
+
+void check_read_answer(const command& c, std::span<const std::uint8_t> line) {
+    const answer a = detail::expected_answer(c);
+    reply r;
+    r.count = 3; // read_answer() starts from a blank reply
+    const detail::line_is what = detail::read_answer(c, a, line, r);
+    reply p;
+    const bool parsed = detail::parse_into(line, p);
+    const auto m = parsed ? detail::classify(c, a, p) : detail::match::other_answer;
+    if (what == detail::line_is::malformed) FERRULE_CHECK(!parsed);
+    FERRULE_CHECK((what == detail::line_is::answer) == (parsed && m == detail::match::answer));
+    FERRULE_CHECK((what == detail::line_is::device_error) ==
+                  (parsed && m == detail::match::device_error));
+    if (what == detail::line_is::answer) {
+        check_same(r, answered(c, p));
+        FERRULE_CHECK(!check_answers(c, r));
+    }
+    if (what == detail::line_is::device_error) {
+        check_same(r, p);
+        FERRULE_CHECK(check_answers(c, r) == make_device_error(r.error_code));
+    }
+}
+
 void check_reply(std::span<const std::uint8_t> line) {
     const auto r = parse_reply(line);
     if (line.empty() || line[0] != 'g' || line.size() < 2 || line[1] < '0' || line[1] > '9') {
@@ -124,7 +159,7 @@ struct line_checker {
     line_decoder d;
     std::size_t fed = 0, in_lines = 0, current = 0;
 
-    void feed(std::span<const std::uint8_t> in) {
+    void feed(std::span<const std::uint8_t> in, const command& cmd) {
         while (!in.empty()) {
             const auto s = d.feed(in);
             FERRULE_CHECK(s.consumed >= 1 && s.consumed <= in.size());
@@ -139,6 +174,7 @@ struct line_checker {
                 for (auto b : l) FERRULE_CHECK(b >= 0x20 && b <= 0x7E);
                 in_lines += l.size() + 2;
                 check_reply(l);
+                check_read_answer(cmd, l);
             }
         }
         // Conservation: what is neither a line nor skipped is the unfinished line.
@@ -279,7 +315,7 @@ struct harness {
         if (bytes.empty()) return;
         now += cfg.format.chars_time(bytes.size());
         s.on_receive(bytes, now);
-        lines.feed(bytes);
+        lines.feed(bytes, cmd);
         have_wait = false;
         quiet_since_send = false;
     }
@@ -308,6 +344,7 @@ struct harness {
         const unsigned id = cmd.id == command::no_id || shape == 1
                                 ? in.ConsumeIntegralInRange<unsigned>(0, 99)
                                 : cmd.id;
+        if (id < 10 && in.ConsumeIntegralInRange<int>(0, 7) == 0) w.put('0'); // g03… (§11.2)
         w.put_id(id);
         switch (shape) {
         case 2: // error, with a buffer status for sNq

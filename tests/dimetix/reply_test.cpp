@@ -244,3 +244,148 @@ TEST_CASE("measurement_of reads the user output formats", "[dimetix][reply]") {
     CHECK(measurement_of(parsed("g0g+1+2")).error() == errc::malformed);
     CHECK(measurement_of(parsed("g0t+1")).error() == errc::unexpected_type);
 }
+
+TEST_CASE("the classify clash needs a DO mnemonic, not any one-letter command",
+          "[dimetix][reply]") {
+    // g51? is ID 51's acknowledge: 51 is not 0 * 10 + ('c' - '0').
+    CHECK(check_answers(stop_clear(0), parsed("g51?")) == errc::unexpected_address);
+    CHECK(check_answers(stop_clear(5), parsed("g51?")) == errc::unexpected_address);
+    CHECK_FALSE(check_answers(*set(5, "1", std::array{1, 2}), parsed("g51?")));
+}
+
+namespace {
+struct line_read {
+    detail::line_is what;
+    reply r;
+};
+line_read read_as(const command& c, std::string_view line) {
+    line_read out{};
+    out.r.count = 5; // read_answer() starts from a blank reply
+    out.what = detail::read_answer(c, detail::expected_answer(c), bytes_of(line), out.r);
+    return out;
+}
+} // namespace
+
+TEST_CASE("the session reads a line as the answer to the command sent", "[dimetix][reply]") {
+    using detail::line_is;
+    const line_read d = read_as(distance(0), "g0g+00012345");
+    REQUIRE(d.what == line_is::answer);
+    CHECK(d.r.id == 0);
+    CHECK(d.r.id_digits == 1);
+    CHECK(d.r.mnemonic.view() == "g");
+    CHECK(d.r.kind == reply_kind::value);
+    CHECK(d.r.count == 1);
+    CHECK(d.r.values[0] == 12345);
+    CHECK(d.r.values[1] == 0);
+    CHECK(d.r.buffer_status == -1);
+
+    const line_read f300 = read_as(distance(42), "g42g+00000234+008384+254");
+    REQUIRE(f300.what == line_is::answer);
+    CHECK(f300.r.count == 3);
+    CHECK(f300.r.values[2] == 254);
+
+    const line_read ack = read_as(stop_clear(3), "g3?");
+    REQUIRE(ack.what == line_is::answer);
+    CHECK(ack.r.kind == reply_kind::startup_or_ack);
+    CHECK(ack.r.mnemonic.size == 0);
+
+    const line_read q = read_as(read_buffer(0), "g0q+00012000+2");
+    REQUIRE(q.what == line_is::answer);
+    CHECK(q.r.buffer_status == 2);
+    CHECK(q.r.count == 2);
+
+    const line_read s = read_as(*set(0, "uo", std::array{300}), "g0uo?");
+    REQUIRE(s.what == line_is::answer);
+    CHECK(s.r.kind == reply_kind::set_ack);
+    CHECK(s.r.mnemonic.view() == "uo");
+
+    // As the manual prints the get answer of sNot (S1 §8.3.6): a value.
+    const line_read ot = read_as(*get(0, "ot"), "g0ot+1?");
+    REQUIRE(ot.what == line_is::answer);
+    CHECK(ot.r.kind == reply_kind::value);
+    CHECK(ot.r.values[0] == 1);
+    CHECK(read_as(*get(0, "ot"), "g0ot?").what == line_is::skipped);
+
+    // dt / dg without ID: whichever sensor is on the line answers.
+    const line_read dg = read_as(generation(), "g7dg+084+07");
+    REQUIRE(dg.what == line_is::answer);
+    CHECK(dg.r.id == 7);
+    CHECK(dg.r.values[0] == d_series_generation);
+}
+
+TEST_CASE("the session matches the ID digits as sent: g11? and g10g", "[dimetix][reply]") {
+    using detail::line_is;
+    // s11+… is ID 1, DO1; its acknowledge g11? reads like ID 11's (dimetix.md §11.1).
+    const command do1 = *set(1, "1", std::array{20050, 19950});
+    const line_read a = read_as(do1, "g11?");
+    REQUIRE(a.what == line_is::answer);
+    CHECK(a.r.id == 1);
+    CHECK(a.r.id_digits == 1);
+    CHECK(a.r.mnemonic.view() == "1");
+    CHECK(a.r.kind == reply_kind::set_ack);
+    CHECK(read_as(*set(0, "1", std::array{1, 2}), "g01?").what == line_is::answer);
+    CHECK(read_as(stop_clear(11), "g11?").what == line_is::answer);
+    CHECK(read_as(stop_clear(1), "g11?").what == line_is::foreign);
+    const line_read get_do1 = read_as(*get(1, "1"), "g11+00020050+00019950");
+    REQUIRE(get_do1.what == line_is::answer);
+    CHECK(get_do1.r.values[1] == 19950);
+    CHECK(read_as(*get(1, "2"), "g11+00020050+00019950").what == line_is::foreign);
+
+    // ID 10's answer is not ID 1's, nor the other way round.
+    CHECK(read_as(distance(1), "g10g+00001234").what == line_is::foreign);
+    CHECK(read_as(distance(10), "g1g+00001234").what == line_is::foreign);
+    CHECK(read_as(distance(10), "g10g+00001234").what == line_is::answer);
+    CHECK(read_as(distance(1), "g2g+00001234").what == line_is::foreign);
+    CHECK(read_as(stop_clear(0), "g51?").what == line_is::foreign);
+
+    // A leading zero of a 1-digit ID is tolerated (dimetix.md §11.2), not of a 2-digit one.
+    const line_read zero = read_as(distance(3), "g03g+00001234");
+    REQUIRE(zero.what == line_is::answer);
+    CHECK(zero.r.id == 3);
+    CHECK(zero.r.id_digits == 1);
+    CHECK(read_as(stop_clear(1), "g01?").what == line_is::answer);
+    CHECK(read_as(distance(0), "g00g+1").what == line_is::answer);
+    CHECK(read_as(distance(12), "g012g+1").what == line_is::foreign);
+}
+
+TEST_CASE("the session tells errors, echoes and other lines apart", "[dimetix][reply]") {
+    using detail::line_is;
+    const line_read e = read_as(distance(1), "g1@E255");
+    REQUIRE(e.what == line_is::device_error);
+    CHECK(e.r.kind == reply_kind::error);
+    CHECK(e.r.error_code == 255);
+    CHECK(e.r.id == 1);
+    CHECK(e.r.count == 0);
+    CHECK(read_as(distance(1), "g01@E255").what == line_is::device_error);
+    CHECK(read_as(distance(1), "g2@E255").what == line_is::foreign);
+    CHECK(read_as(stop_clear(1), "g1@E255").what == line_is::device_error);
+    CHECK(read_as(generation(), "g4@E203").what == line_is::device_error);
+    const line_read qe = read_as(read_buffer(0), "g0@E210+0");
+    REQUIRE(qe.what == line_is::device_error);
+    CHECK(qe.r.buffer_status == 0);
+    CHECK(read_as(distance(1), "g1@E").what == line_is::malformed);
+    CHECK(read_as(distance(1), "g1@E2x").what == line_is::malformed);
+    CHECK(read_as(distance(1), "g1@E1000").what == line_is::malformed);
+
+    // afi echoes its selector; another one is not the answer (S1 §8.4.5).
+    const command afi = *set(0, "afi", std::array{1, 5000});
+    CHECK(read_as(afi, "g0afi+1?").what == line_is::answer);
+    CHECK(read_as(afi, "g0afi?").what == line_is::answer);
+    CHECK(read_as(afi, "g0afi+2?").what == line_is::skipped);
+    CHECK(read_as(afi, "g0afi+1").what == line_is::skipped);
+    CHECK(read_as(*set(0, "id", std::array{5}), "g0+5?").what == line_is::skipped);
+
+    // The startup string and queued tracking lines of the ID asked are not its answer.
+    CHECK(read_as(distance(0), "g0?").what == line_is::startup);
+    CHECK(read_as(distance(0), "g0h+00001000").what == line_is::skipped);
+    CHECK(read_as(stop_clear(0), "g0h+00001000").what == line_is::skipped);
+    CHECK(read_as(distance(0), "g1?").what == line_is::foreign);
+    // Another mnemonic beginning with the one asked is another command's answer.
+    CHECK(read_as(*get(0, "v"), "g0vm+1").what == line_is::skipped);
+
+    for (const char* bad : {"", "g", "g0", "x0g+1", "G0g+1", "gg+1", "g0g", "g0g+", "g0g+1x",
+                            "g0g++1", "g0g+2147483648", "g0g+1?x"})
+        CHECK(read_as(distance(0), bad).what == line_is::malformed);
+    CHECK(read_as(read_buffer(0), "g0q+5").what == line_is::malformed); // no buffer status
+    CHECK(read_as(stop_clear(0), "g0?x").what == line_is::malformed);
+}

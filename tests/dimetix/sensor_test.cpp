@@ -107,6 +107,25 @@ TEST_CASE("a garbage line is retried and the next answer accepted", "[dimetix][s
     CHECK(s.attempts() == 2);
 }
 
+TEST_CASE("a garbled answer is retried, another ID's garbled line only skipped",
+          "[dimetix][sensor]") {
+    script_step second = reply_with("s1g\r\n", "g01g+00000777\r\n", 50ms);
+    second.noise = b("g2g+12x\r\n");
+    const std::array steps{reply_with("s1g\r\n", "g1g+12x\r\n"), second};
+    ferrule::script_peer peer(steps);
+    mock_serial line(default_format, &peer);
+    sensor s;
+    const auto m = measure(line, s, 1);
+    REQUIRE(m);
+    CHECK(m->distance == 777);
+    CHECK(s.last_reply().id == 1);
+    CHECK(s.last_reply().id_digits == 1); // as answered(): the leading zero is not kept
+    CHECK(s.stats().malformed_lines == 1);
+    CHECK(s.stats().foreign_lines == 1);
+    CHECK(s.attempts() == 2);
+    CHECK(peer.finished());
+}
+
 TEST_CASE("an answer from another ID is skipped, not accepted", "[dimetix][sensor]") {
     script_step st = reply_with("s1g\r\n", "g1g+00000777\r\n", 50ms);
     st.noise = b("g2g+00009999\r\n");
@@ -269,6 +288,9 @@ TEST_CASE("invalid commands are refused before anything is sent", "[dimetix][sen
     CHECK(s.start(make_command(0, "eg", 100)) == errc::invalid_argument);
     CHECK(s.start(make_command(0, "g", 1)) == errc::invalid_argument); // sNg has no parameter
     CHECK(s.start(make_command(command::no_id, "g")) == errc::invalid_argument);
+    command wide = *set(0, "uo", std::array{300});
+    wide.digits = 11; // more than a request holds, as encode() refuses it
+    CHECK(s.start(wide) == errc::invalid_argument);
     CHECK(s.next(time_point{}).what == ferrule::session_action::kind::idle);
 }
 

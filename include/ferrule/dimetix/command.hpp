@@ -167,13 +167,21 @@ constexpr bool is_continuous(const command& c) noexcept {
 }
 
 namespace detail {
+// Writes `v` in decimal with at least `digits` digits (zero-padded); returns the end.
+inline std::uint8_t* put_decimal(std::uint8_t* p, std::uint32_t v, std::size_t digits) noexcept {
+    std::size_t n = 1;
+    for (std::uint32_t rest = v; rest >= 10; rest /= 10) ++n;
+    std::uint8_t* const end = p + (n < digits ? digits : n);
+    for (std::uint8_t* q = end; q != p; v /= 10) *--q = static_cast<std::uint8_t>('0' + v % 10);
+    return end;
+}
+
 // Writes a command that encode() has checked; `out` holds max_request_length bytes.
 inline std::size_t encode_unchecked(const command& c, std::uint8_t* out) noexcept {
     std::uint8_t* p = out;
     if (c.id != command::no_id) {
         *p++ = 's';
-        if (c.id >= 10) *p++ = static_cast<std::uint8_t>('0' + c.id / 10u);
-        *p++ = static_cast<std::uint8_t>('0' + c.id % 10u);
+        p = put_decimal(p, c.id, 1);
     }
     for (std::size_t i = 0; i < c.mnemonic.size; ++i)
         *p++ = static_cast<std::uint8_t>(c.mnemonic.chars[i]);
@@ -181,18 +189,9 @@ inline std::size_t encode_unchecked(const command& c, std::uint8_t* out) noexcep
         const std::int32_t v = c.params[i];
         *p++ = v < 0 ? '-' : '+';
         // Magnitude as unsigned: -2^31 has no positive int32.
-        std::uint32_t mag =
-            v < 0 ? 0u - static_cast<std::uint32_t>(v) : static_cast<std::uint32_t>(v);
-        std::uint8_t* first = p;
-        do {
-            *p++ = static_cast<std::uint8_t>('0' + mag % 10);
-            mag /= 10;
-        } while (mag != 0 || p - first < c.digits);
-        for (std::uint8_t* q = p - 1; first < q; ++first, --q) { // digits were written backwards
-            const std::uint8_t t = *first;
-            *first = *q;
-            *q = t;
-        }
+        p = put_decimal(p,
+                        v < 0 ? 0u - static_cast<std::uint32_t>(v) : static_cast<std::uint32_t>(v),
+                        c.digits);
     }
     *p++ = cr;
     *p++ = lf;

@@ -27,66 +27,59 @@ public:
     };
 
     step feed(std::span<const std::uint8_t> in) noexcept {
-        if (complete_) {
-            size_ = 0;
-            complete_ = false;
-        }
-        for (std::size_t i = 0; i < in.size(); ++i) {
-            const std::uint8_t b = in[i];
+        line_size_ = 0;
+        status what = status::need_more;
+        std::size_t i = 0;
+        while (what == status::need_more && i < in.size()) {
+            const std::uint8_t b = in[i++];
             if (skipping_) { // the rest of an overlong line, already reported
                 ++skipped_;
                 skipping_ = b != lf;
-                continue;
-            }
-            if (b == lf) {
-                if (!bad_ && size_ >= 2 && buf_[size_ - 1] == cr) {
-                    --size_;
-                    complete_ = true;
-                    return {status::line, i + 1, {}};
+            } else if (b == lf || size_ == buf_.size()) {
+                // At the LF a line of printable 7-bit ASCII ended by CR LF (the CR is its only
+                // control byte); anything else, or a line longer than any answer can be, is an
+                // error, reported once: an overlong line is dropped up to its LF.
+                if (b == lf && size_ >= 2 && buf_[size_ - 1] == cr && controls_ == 1) {
+                    line_size_ = size_ - 1;
+                    what = status::line;
+                } else {
+                    skipped_ += size_ + 1;
+                    skipping_ = b != lf;
+                    what = status::error;
                 }
-                return drop(i, false);
+                size_ = 0;
+                controls_ = 0;
+            } else {
+                controls_ += b < 0x20 || b > 0x7E;
+                buf_[size_++] = b;
             }
-            // Printable 7-bit ASCII only, and CR only right before the LF.
-            if ((size_ > 0 && buf_[size_ - 1] == cr) || (b < 0x20 && b != cr) || b > 0x7E)
-                bad_ = true;
-            // Longer than any answer can be: report now, drop up to the next LF.
-            if (size_ == buf_.size()) return drop(i, true);
-            buf_[size_++] = b;
         }
-        return {status::need_more, in.size(), {}};
+        std::error_code ec{};
+        if (what == status::error) ec = errc::malformed;
+        return {what, i, ec};
     }
 
     // The line just yielded, without CR LF (valid until the next feed()).
-    std::span<const std::uint8_t> line() const noexcept {
-        return {buf_.data(), complete_ ? size_ : std::size_t{0}};
-    }
+    std::span<const std::uint8_t> line() const noexcept { return {buf_.data(), line_size_}; }
     // Bytes of an unfinished line are buffered (or an overlong one is being skipped).
-    bool in_line() const noexcept { return (!complete_ && size_ > 0) || skipping_; }
+    bool in_line() const noexcept { return size_ > 0 || skipping_; }
     // Bytes dropped as parts of malformed or overlong lines, LF included.
     std::size_t skipped() const noexcept { return skipped_; }
     void reset() noexcept {
         size_ = 0;
-        complete_ = false;
+        line_size_ = 0;
+        controls_ = 0;
         skipping_ = false;
-        bad_ = false;
     }
 
 private:
-    // The buffered bytes and in[i] are dropped; an overlong line is skipped up to its LF.
-    step drop(std::size_t i, bool overlong) noexcept {
-        skipped_ += size_ + 1;
-        size_ = 0;
-        bad_ = false;
-        skipping_ = overlong;
-        return {status::error, i + 1, errc::malformed};
-    }
-
-    std::array<std::uint8_t, max_line_length - 1> buf_{}; // everything but the LF
-    std::size_t size_ = 0;
+    // The counters first: Thumb code reaches them with short instructions.
+    std::size_t size_ = 0;      // of the line being read
+    std::size_t line_size_ = 0; // of the line just yielded
     std::size_t skipped_ = 0;
-    bool complete_ = false;
+    std::uint8_t controls_ = 0; // bytes of the line outside printable ASCII, CR included
     bool skipping_ = false;
-    bool bad_ = false; // a byte that cannot be in an answer
+    std::array<std::uint8_t, max_line_length - 1> buf_{}; // everything but the LF
 };
 
 } // namespace ferrule::dimetix

@@ -11,7 +11,8 @@
 // With 2-digit IDs the text is ambiguous (dimetix.md §11.1): `g11?` is ID 11's acknowledge
 // or ID 1's answer to the DO1 hysteresis set `s11+…`. parse_reply() reads the ID greedily
 // (up to two digits); check_answers() decides with the command that was sent, and
-// answered() gives the reply as that command's answer.
+// answered() gives the reply as that command's answer. The sensor session reads each line
+// against the command it sent in one step (detail::read_answer()).
 #pragma once
 
 #include <array>
@@ -175,15 +176,16 @@ constexpr match classify(const command& c, answer a, const reply& r) noexcept {
     if (r.kind == reply_kind::error) return own_id ? match::device_error : match::other_id;
     // `g11?` reads as ID 11's acknowledge; as the answer to `s11+…` (ID 1, DO1) it is
     // DO1's: the ID's second digit is the mnemonic (dimetix.md §11.1). Likewise `g11+…`.
+    const unsigned digit = static_cast<unsigned>(c.mnemonic.chars[0] - '0');
     const bool clash = r.mnemonic.size == 0 && r.id_digits == 2 && c.mnemonic.size == 1 &&
-                       r.id == c.id * 10 + (c.mnemonic.chars[0] - '0');
+                       digit < 10 && r.id == c.id * 10 + digit;
     const bool same = own_id && r.mnemonic == (a == answer::ack ? mnemonic{} : c.mnemonic);
     if (!same && !clash) return own_id ? match::other_answer : match::other_id;
     bool ok = false;
     switch (a) {
     case answer::ack: ok = r.kind == reply_kind::startup_or_ack; break;
     case answer::set_ack:
-        ok = (r.kind == reply_kind::set_ack || clash) &&
+        ok = (r.kind == reply_kind::set_ack || (clash && r.kind == reply_kind::startup_or_ack)) &&
              (r.count == 0 || (c.param_count > 0 && r.values[0] == c.params[0]));
         break;
     case answer::value:
@@ -220,6 +222,66 @@ constexpr void make_answer(const command& c, answer a, reply& r) noexcept {
     r.kind = a == answer::ack       ? reply_kind::startup_or_ack
              : a == answer::set_ack ? reply_kind::set_ack
                                     : reply_kind::value;
+}
+
+inline constexpr reply blank_reply{}; // what read_answer() starts from
+
+// What a line is to the session waiting for the answer to a command.
+enum class line_is : std::uint8_t { answer, device_error, foreign, startup, skipped, malformed };
+
+// The session's reading of `line` (as line_decoder yields it, without CR LF) while it waits
+// for the answer `a` (not answer::none) to `c`: check_answers() on parse_reply()'s work for
+// answers and device errors, in one pass that parses only what may answer. `r` gets the line:
+// on line_is::answer the reply as answered() gives it, on line_is::device_error gN@Ezzz.
+//   answer        `g`, c's ID (1 or 2 digits as parse_reply() reads them, a leading zero
+//                 tolerated: dimetix.md §11.2) and, but for gN?, c's mnemonic (S1 §8.1.4),
+//                 then a tail of the expected kind: `?` for gN?, `?` or the first parameter
+//                 echoed as `+a?` for a set acknowledge (S1 §8.4.5), values for a get (also
+//                 `+a?`, S1 §8.3.6). dt / dg take any ID (S1 §8.5.3-8.5.4).
+//   device_error  gN@Ezzz[+b] of c's ID (any ID for dt / dg)
+//   foreign       another ID's line
+//   startup       gN? of c's ID that does not answer c (S1 §8.1.5)
+//   skipped       any other line of c's ID
+//   malformed     not `g` and a digit, or an error line or c's answer with a malformed tail
+// `g11?` reads as ID 11's; as the answer to `s11+…` (ID 1, DO1) the ID's second digit is the
+// mnemonic (dimetix.md §11.1), and so it is matched.
+constexpr line_is read_answer(const command& c, answer a, std::span<const std::uint8_t> line,
+                              reply& r) noexcept {
+    r = blank_reply;
+    const std::size_t n = line.size();
+    if (n < 3 || line[0] != 'g' || !is_digit(line[1])) return line_is::malformed;
+    std::size_t i = 1;
+    unsigned id = 0;
+    while (i < 3 && is_digit(line[i])) id = id * 10 + (line[i++] - '0');
+    r.id = static_cast<std::uint8_t>(id);
+    r.id_digits = static_cast<std::uint8_t>(i - 1);
+    const bool own_id = (c.id == command::no_id) | (id == c.id); // `|`: smaller code than `||`
+    if (i + 1 < n && line[i] == '@' && line[i + 1] == 'E') {
+        if (!parse_tail(line, n, i, r, true, false)) return line_is::malformed;
+        return own_id ? line_is::device_error : line_is::foreign;
+    }
+    // The mnemonic from line[h]; for the clash from the ID's second digit.
+    std::size_t h = i;
+    bool head = own_id;
+    if (!own_id && i == 3 && line[1] - '0' == c.id) {
+        h = 2;
+        head = true;
+    }
+    const std::size_t len = a == answer::ack ? 0 : c.mnemonic.size;
+    for (std::size_t k = 0; head && k < len; ++k, ++h)
+        head = h < n && line[h] == static_cast<std::uint8_t>(c.mnemonic.chars[k]);
+    if (head && (h == n || !is_alnum(line[h]))) {
+        if (!parse_tail(line, n, h, r, false, c.mnemonic.is('q'))) return line_is::malformed;
+        if (a == answer::value ? r.count > 0
+                               : r.kind == reply_kind::set_ack &&
+                                     (r.count == 0 || (a == answer::set_ack && c.param_count > 0 &&
+                                                       r.values[0] == c.params[0]))) {
+            make_answer(c, a, r);
+            return line_is::answer;
+        }
+    }
+    if (!own_id) return line_is::foreign;
+    return i + 1 == n && line[i] == '?' ? line_is::startup : line_is::skipped;
 }
 } // namespace detail
 

@@ -4,14 +4,16 @@
 //   * the host owns the line: it sends the next command only after the answer or a timeout
 //     ("always waiting for the answer … or timeout"), with no further gap (none is
 //     documented); stale input is dropped before sending
-//   * the answer is the first line that answers the command (check_answers): lines of other
-//     IDs, the startup string `gN?` and queued tracking lines `gNh+…` of this ID (still
-//     coming after sNc) are skipped and counted, not taken as the answer
+//   * the answer is the first line that answers the command (check_answers), recognised by
+//     the ID digits and mnemonic it repeats (detail::read_answer): lines of other IDs, the
+//     startup string `gN?` and queued tracking lines `gNh+…` of this ID (still coming after
+//     sNc) are skipped and counted, not taken as the answer
 //   * deadline from the end of the command on the wire: measurement_timeout for commands
 //     that measure or write flash (g, h, m, t, s, d), command_timeout for the others
-//   * a timeout or a malformed line is retried (the command is sent again: "each new command
-//     cancels an active measurement", S1 §8.2.2); `gN@Ezzz` ends the command with the
-//     device error unless retry_device_errors
+//   * a timeout or a malformed line (not a Dimetix line, or the answer or a `gN@Ezzz` with a
+//     malformed rest) is retried (the command is sent again: "each new command cancels an
+//     active measurement", S1 §8.2.2); `gN@Ezzz` ends the command with the device error
+//     unless retry_device_errors
 //   * multi-drop (default): continuous commands (sNh, sNh+, sNm+1) are refused, because on
 //     RS-485 only a power cycle stops them (S1 §8.2.3-8.2.4); force_continuous allows them
 //     on a one-sensor RS-232/422 line. ID-less dt / dg are refused too (S1 §8.5.3-8.5.4)
@@ -57,7 +59,7 @@ struct sensor_stats {
     std::uint32_t succeeded = 0;
     std::uint32_t failed = 0;
     std::uint32_t timeouts = 0;
-    std::uint32_t malformed_lines = 0; // not a Dimetix answer, or too long
+    std::uint32_t malformed_lines = 0; // not a Dimetix line; an answer / gN@Ezzz malformed
     std::uint32_t device_errors = 0;   // gN@Ezzz from the sensor asked
     std::uint32_t resends = 0;
     std::uint32_t foreign_lines = 0; // answers of other IDs
@@ -75,15 +77,19 @@ public:
         if (busy()) return errc::busy;
         // A documented command form (S1 ch.8); parameter ranges are the sensor's to check
         // (@E203), validate() checks them beforehand.
-        if ((c.id > max_id && c.id != command::no_id) || c.param_count > command::max_params)
+        if ((c.id > max_id && c.id != command::no_id) || c.param_count > command::max_params ||
+            c.digits > 10) // as encode(): tx_ holds max_request_length bytes
             return errc::invalid_argument;
         const command_spec* s = find_spec(c.mnemonic, c.id != command::no_id);
-        if (!s || answer_of(*s, c.param_count) == answer::none) return errc::invalid_argument;
+        const answer a = s ? answer_of(*s, c.param_count) : answer::none;
+        if (a == answer::none) return errc::invalid_argument;
         if (cfg_.multi_drop &&
             (c.id == command::no_id || (is_continuous(c) && !cfg_.force_continuous)))
             return errc::invalid_argument;
         if (latched_ && !c.mnemonic.is('c')) return errc::fault_latched;
-        return begin(c, *s, cfg_.retries);
+        cmd_ = c;
+        return begin(a, s->measures ? cfg_.measurement_timeout : cfg_.command_timeout,
+                     cfg_.retries);
     }
 
     // The start-up of S1 §8.2.1 / the paper: sNc until the sensor acknowledges with gN?.
@@ -91,9 +97,10 @@ public:
         if (busy()) return errc::busy;
         if (id > max_id || cfg_.connect_attempts == 0) return errc::invalid_argument;
         static constexpr command stop = stop_clear(0);
-        command c = stop;
-        c.id = id;
-        return begin(c, command_table[0], cfg_.connect_attempts - 1);
+        cmd_ = stop;
+        cmd_.id = id;
+        // Answered gN?, without measuring (S1 §8.2.1).
+        return begin(answer::ack, cfg_.command_timeout, cfg_.connect_attempts - 1);
     }
 
     session_action next(time_point now) noexcept {
@@ -109,8 +116,11 @@ public:
             return session_action::send({tx_.data(), tx_size_}, cfg_.discard_stale_input);
         }
         case state::awaiting:
-            if (now < deadline_) return session_action::wait_until(deadline_);
-            fail(errc::timeout, true);
+            // Compared as durations: inline, where time_point's <=> is a call.
+            if (now.time_since_epoch() < deadline_.time_since_epoch())
+                return session_action::wait_until(deadline_);
+            ++stats_.timeouts;
+            fail(errc::timeout, true, true);
             return next(now);
         }
         return session_action::idle();
@@ -119,16 +129,11 @@ public:
     void on_receive(std::span<const std::uint8_t> in, time_point) noexcept {
         while (!in.empty()) {
             const auto step = decoder_.feed(in);
-            const bool awaiting = state_ == state::awaiting;
-            if (!awaiting) stats_.stale_bytes += static_cast<std::uint32_t>(step.consumed);
             in = in.subspan(step.consumed);
-            if (!awaiting || step.what == line_decoder::status::need_more) continue;
-            if (step.what == line_decoder::status::error) {
-                ++stats_.malformed_lines;
-                fail(errc::malformed, true);
-            } else {
-                evaluate(decoder_.line());
-            }
+            if (state_ != state::awaiting)
+                stats_.stale_bytes += static_cast<std::uint32_t>(step.consumed);
+            else if (step.what != line_decoder::status::need_more)
+                evaluate(decoder_.line()); // empty after a malformed line: counted as one
         }
     }
 
@@ -165,66 +170,55 @@ public:
 private:
     enum class state : std::uint8_t { idle, pending_send, awaiting, done };
 
-    std::error_code begin(const command& c, const command_spec& s, unsigned retries) noexcept {
-        tx_size_ = detail::encode_unchecked(c, tx_.data()); // checked by start()
-        cmd_ = c;
+    // cmd_, checked by start(), answered by `a` within `timeout` after it was sent.
+    std::error_code begin(answer a, duration timeout, unsigned retries) noexcept {
+        tx_size_ = detail::encode_unchecked(cmd_, tx_.data());
         retries_ = retries;
         attempts_ = 0;
-        error_ = {};
-        reply_ = {};
-        expect_ = answer_of(s, c.param_count);
-        timeout_ = s.measures ? cfg_.measurement_timeout : cfg_.command_timeout;
+        expect_ = a;
+        timeout_ = timeout;
         ++stats_.transactions;
         state_ = state::pending_send;
-        return {};
+        return error_ = {};
     }
 
     void evaluate(std::span<const std::uint8_t> line) noexcept {
-        reply& r = reply_; // the line read last; the answer once the command is done
-        r = reply{};
-        if (!detail::parse_into(line, r)) {
-            ++stats_.malformed_lines;
-            fail(errc::malformed, true);
-            return;
-        }
-        switch (detail::classify(cmd_, expect_, r)) {
-        case detail::match::other_id: ++stats_.foreign_lines; break;
-        case detail::match::other_answer:
-            if (r.kind == reply_kind::startup_or_ack)
-                ++stats_.startups;
-            else
-                ++stats_.skipped_lines;
+        // The counter of each kind of line, in detail::line_is order.
+        static constexpr std::uint32_t sensor_stats::*counter[] = {
+            &sensor_stats::succeeded, &sensor_stats::device_errors, &sensor_stats::foreign_lines,
+            &sensor_stats::startups,  &sensor_stats::skipped_lines, &sensor_stats::malformed_lines};
+        // reply_: the line read last; the answer once the command is done
+        const auto what = detail::read_answer(cmd_, expect_, line, reply_);
+        ++(stats_.*counter[static_cast<std::size_t>(what)]);
+        switch (what) {
+        case detail::line_is::answer:
+            failures_ = 0;
+            // While latched only sNc runs: its gN? has the sensor back in hand (S1 §8.2.1).
+            latched_ = false;
+            finish({});
             break;
-        case detail::match::device_error: // gN@Ezzz: the sensor is there, but refused or failed
-            ++stats_.device_errors;
-            fail(make_device_error(r.error_code), cfg_.retry_device_errors);
+        case detail::line_is::device_error: // gN@Ezzz: the sensor is there, but refused or failed
+            fail(make_device_error(reply_.error_code), cfg_.retry_device_errors, false);
             break;
-        case detail::match::answer:
-            detail::make_answer(cmd_, expect_, r);
-            succeed();
-            break;
+        case detail::line_is::malformed: fail(errc::malformed, true, true); break;
+        case detail::line_is::foreign:
+        case detail::line_is::startup:
+        case detail::line_is::skipped: break;
         }
     }
 
-    void succeed() noexcept {
-        ++stats_.succeeded;
-        failures_ = 0;
-        if (cmd_.mnemonic.is('c')) latched_ = false; // S1 §8.2.1: the sensor is back in hand
-        finish({});
-    }
-
-    void fail(std::error_code ec, bool may_retry) noexcept {
-        if (ec == errc::timeout) ++stats_.timeouts;
+    // A failed attempt: resent while attempts remain and `may_retry`, else the command fails
+    // with `ec`. A line fault (timeout, malformed line) counts towards the fault latch; a
+    // device error does not: the sensor answered.
+    void fail(std::error_code ec, bool may_retry, bool line_fault) noexcept {
+        error_ = ec; // while resending: the cause so far, replaced by the final outcome
         if (may_retry && attempts_ <= retries_) {
-            error_ = ec; // the cause so far, replaced by the final outcome
             state_ = state::pending_send;
             return;
         }
         ++stats_.failed;
-        if (ec.category() != device_category() && ++failures_ >= cfg_.fault_threshold &&
-            cfg_.fault_threshold != 0)
-            latched_ = true;
-        finish(ec);
+        if (line_fault && ++failures_ == cfg_.fault_threshold) latched_ = true; // 0: never
+        state_ = state::done;
     }
 
     void finish(std::error_code ec) noexcept {
@@ -232,22 +226,23 @@ private:
         state_ = state::done;
     }
 
-    sensor_config cfg_;
-    sensor_stats stats_{};
+    // The small members first: Thumb code reaches them with short instructions.
     state state_ = state::idle;
-    command cmd_{};
-    reply reply_{};
-    line_decoder decoder_{};
-    std::array<std::uint8_t, max_request_length> tx_{};
-    std::size_t tx_size_ = 0;
-    time_point deadline_{};
-    duration timeout_{};
     answer expect_ = answer::none;
-    std::error_code error_{};
+    bool latched_ = false;
     unsigned attempts_ = 0;
     unsigned retries_ = 0;
     unsigned failures_ = 0;
-    bool latched_ = false;
+    std::size_t tx_size_ = 0;
+    std::error_code error_{};
+    time_point deadline_{};
+    duration timeout_{};
+    sensor_stats stats_{};
+    line_decoder decoder_{};
+    sensor_config cfg_;
+    command cmd_{};
+    reply reply_{};
+    std::array<std::uint8_t, max_request_length> tx_{};
 };
 
 static_assert(master_session<sensor>);
