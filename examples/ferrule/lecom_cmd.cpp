@@ -134,9 +134,14 @@ int cmd_write(context& c) {
     j["code"] = code.code;
     j["subcode"] = code.subcode;
     j["acknowledged"] = !group;
+    const std::string target = !group ? fmt::format("drive {}", c.address())
+                               : c.address() == lc::broadcast_address
+                                   ? std::string("address 00 (all drives)")
+                                   : fmt::format("address {:02} (drives {}1-{}9)", c.address(),
+                                                 c.address() / 10, c.address() / 10);
     emit(c.o.common, j,
-         fmt::format("drive {:02} {} = {}: {}", c.address(), code_text(code), value_text(*v),
-                     group ? "sent (group / broadcast: no reply by design)" : "ACK"));
+         fmt::format("{} {} = {}: {}", target, code_text(code), value_text(*v),
+                     group ? "sent, no reply by design" : "ACK"));
     return exit_ok;
 }
 
