@@ -1,0 +1,240 @@
+// libFuzzer target: modbus::rtu_decoder (responses and requests), the PDU codec
+// (parse_request, request_exception, encode_request, parse_response, expected lengths).
+//
+// Input layout
+//   byte 0      bit 0 accept mode (0 responses, 1 requests), bits 1-2 scheme, bits 3-7
+//               chunk size - 1
+//   bytes 1..   schemes 0-2: the byte stream; scheme 3: a request to build from the bytes
+//
+// Schemes
+//   0  the whole stream in one span
+//   1  fixed chunks of (bits 3-7) + 1 bytes
+//   2  records: a header byte (bits 0-5: data bytes that follow, bit 6: silence after them)
+//   3  encode_request(): what encodes parses back to the same bytes, deserves no exception,
+//      and has the length expected_request_length() predicts; wrapped by encode_rtu it comes
+//      out of a requests decoder whole
+// Schemes 0-2 end with a silence (finish() until need_more).
+//
+// Invariants (violation -> __builtin_trap):
+//   * a step consumes at most its input; need_more consumes it all; frame -> no ec; error ->
+//     malformed or bad_checksum; a step that consumes nothing is a frame or an error, and
+//     the decoder never loops without progress
+//   * every frame: 4 … 256 bytes with CRC 0 over it, exactly the bytes of the stream after
+//     those already framed or skipped; its PDU has the length its mode predicts (or, at a
+//     silence in requests mode, one that cannot be predicted)
+//   * a request frame that parse_request() accepts encodes back byte for byte; one it
+//     refuses deserves an exception (request_exception() != 0)
+//   * parse_response() against a request of the same function code gives a response or an
+//     error of ferrule::errc / modbus::device_category(), never reads outside the PDU
+//   * conservation: after the silence, bytes consumed == bytes in frames + skipped()
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <span>
+
+#include "ferrule/core/checksum.hpp"
+#include "ferrule/modbus/pdu.hpp"
+#include "ferrule/modbus/rtu.hpp"
+#include "fuzz_check.hpp"
+
+namespace {
+
+using namespace ferrule;
+using namespace ferrule::modbus;
+using accept = rtu_decoder::accept;
+using status = rtu_decoder::status;
+
+void check_request(std::span<const std::uint8_t> pdu) {
+    const auto r = parse_request(pdu);
+    const std::uint8_t ex = request_exception(pdu);
+    if (!r) {
+        FERRULE_CHECK(r.error() == errc::malformed);
+        FERRULE_CHECK(ex != 0 || pdu.empty());
+        return;
+    }
+    FERRULE_CHECK(ex == 0);
+    std::array<std::uint8_t, max_pdu> out{};
+    const auto n = encode_request(*r, out);
+    FERRULE_CHECK(n.has_value() && *n == pdu.size());
+    FERRULE_CHECK(std::memcmp(out.data(), pdu.data(), pdu.size()) == 0);
+    FERRULE_CHECK(expected_request_length(pdu) == pdu.size());
+}
+
+void check_response(std::span<const std::uint8_t> pdu, std::span<const std::uint8_t> seed) {
+    if (pdu.empty()) return;
+    // A request of the response's function code, its fields from the seed bytes.
+    std::array<std::uint8_t, 8> s{};
+    for (std::size_t i = 0; i < s.size() && i < seed.size(); ++i) s[i] = seed[i];
+    request r;
+    r.function = static_cast<function>(pdu[0] & 0x7F);
+    r.address = static_cast<std::uint16_t>(s[0] << 8 | s[1]);
+    r.quantity = static_cast<std::uint16_t>(s[2] << 8 | s[3]);
+    r.value = static_cast<std::uint16_t>(s[4] << 8 | s[5]);
+    r.read_device_id_code = s[6];
+    r.data = std::span<const std::uint8_t>(s).first(s[7] % 3);
+    const auto p = parse_response(r, pdu);
+    if (!p) {
+        const auto& cat = p.error().category();
+        FERRULE_CHECK(cat == errc_category() || cat == device_category());
+        return;
+    }
+    FERRULE_CHECK(p->data.empty() || (p->data.data() >= pdu.data() &&
+                                      p->data.data() + p->data.size() <= pdu.data() + pdu.size()));
+}
+
+struct harness {
+    rtu_decoder dec;
+    accept mode;
+    std::array<std::uint8_t, 4096> fed{};
+    std::size_t consumed = 0;
+    std::size_t frame_bytes = 0;
+
+    explicit harness(accept m) : dec(m), mode(m) {}
+
+    void on_frame(bool at_silence) {
+        const auto adu = dec.adu();
+        FERRULE_CHECK(adu.size() >= 4 && adu.size() <= max_rtu_adu);
+        FERRULE_CHECK(crc16_modbus(adu) == 0);
+        FERRULE_CHECK(dec.address() == adu[0]);
+        FERRULE_CHECK(dec.pdu().size() == adu.size() - 3);
+        const std::size_t start = frame_bytes + dec.skipped();
+        FERRULE_CHECK(start + adu.size() <= consumed);
+        FERRULE_CHECK(std::memcmp(fed.data() + start, adu.data(), adu.size()) == 0);
+        frame_bytes += adu.size();
+        const auto pdu = dec.pdu();
+        if (mode == accept::requests) {
+            const std::size_t want = expected_request_length(pdu);
+            FERRULE_CHECK(want == pdu.size() || (at_silence && want == no_frame));
+            check_request(pdu);
+        } else {
+            FERRULE_CHECK(expected_response_length(pdu) == pdu.size());
+            check_response(pdu, std::span<const std::uint8_t>(fed).first(consumed));
+        }
+    }
+
+    void run(rtu_decoder::step s, bool at_silence) {
+        switch (s.what) {
+        case status::need_more: FERRULE_CHECK(!s.ec); break;
+        case status::frame:
+            FERRULE_CHECK(!s.ec);
+            on_frame(at_silence);
+            break;
+        case status::error:
+            FERRULE_CHECK(s.ec == errc::malformed || s.ec == errc::bad_checksum);
+            break;
+        }
+    }
+
+    void feed(std::span<const std::uint8_t> chunk) {
+        std::size_t idle = 0;
+        rtu_decoder::step s;
+        do {
+            s = dec.feed(chunk);
+            FERRULE_CHECK(s.consumed <= chunk.size());
+            if (s.what == status::need_more) FERRULE_CHECK(s.consumed == chunk.size());
+            // Steps without input are bounded by the bytes buffered.
+            idle = s.consumed == 0 ? idle + 1 : 0;
+            FERRULE_CHECK(idle <= 2 * max_rtu_adu + 2);
+            std::memcpy(fed.data() + consumed, chunk.data(), s.consumed);
+            consumed += s.consumed;
+            chunk = chunk.subspan(s.consumed);
+            run(s, false);
+        } while (s.what != status::need_more);
+    }
+
+    void silence() {
+        rtu_decoder::step s;
+        std::size_t steps = 0;
+        do {
+            s = dec.finish();
+            FERRULE_CHECK(s.consumed == 0);
+            FERRULE_CHECK(++steps <= 2 * max_rtu_adu + 2);
+            run(s, true);
+        } while (s.what != status::need_more);
+        FERRULE_CHECK(!dec.in_frame());
+        FERRULE_CHECK(consumed == frame_bytes + dec.skipped());
+    }
+};
+
+void build_request(std::span<const std::uint8_t> in) {
+    auto take = [&in]() -> std::uint8_t {
+        if (in.empty()) return 0;
+        const std::uint8_t b = in[0];
+        in = in.subspan(1);
+        return b;
+    };
+    auto take16 = [&take]() {
+        const std::uint8_t hi = take();
+        return static_cast<std::uint16_t>(hi << 8 | take());
+    };
+    request r;
+    r.function = static_cast<function>(take());
+    r.address = take16();
+    r.quantity = take16();
+    r.write_address = take16();
+    r.write_quantity = take16();
+    r.value = take16();
+    r.mei_type = take();
+    r.read_device_id_code = take();
+    r.object_id = take();
+    const std::uint8_t unit = take();
+    const std::size_t len = take();
+    r.data = in.first(std::min(in.size(), len));
+
+    std::array<std::uint8_t, max_pdu> pdu{};
+    const auto n = encode_request(r, pdu);
+    if (!n) {
+        FERRULE_CHECK(n.error() == errc::invalid_argument);
+        return;
+    }
+    const std::span<const std::uint8_t> p(pdu.data(), *n);
+    FERRULE_CHECK(expected_request_length(p) == *n);
+    FERRULE_CHECK(request_exception(p) == 0);
+    check_request(p);
+    std::array<std::uint8_t, max_rtu_adu> adu{};
+    const auto m = encode_rtu(unit, p, adu);
+    FERRULE_CHECK(m.has_value() && *m == *n + 3);
+    harness h(accept::requests);
+    h.feed(std::span<const std::uint8_t>(adu.data(), *m));
+    FERRULE_CHECK(h.frame_bytes == *m && h.dec.skipped() == 0);
+}
+
+} // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+    if (size == 0) return 0;
+    const std::uint8_t ctl = data[0];
+    const accept mode = (ctl & 1u) ? accept::requests : accept::responses;
+    const unsigned scheme = (ctl >> 1) & 3u;
+    const std::size_t chunk = ((ctl >> 3) & 31u) + 1u;
+    const std::span<const std::uint8_t> in(data + 1, size - 1);
+    if (in.size() > 2048) return 0;
+    check_request(in);
+    check_response(in, in);
+    (void)expected_response_length(in);
+
+    if (scheme == 3) {
+        build_request(in);
+        return 0;
+    }
+    harness h(mode);
+    if (scheme == 0) {
+        h.feed(in);
+    } else if (scheme == 1) {
+        for (std::size_t pos = 0; pos < in.size(); pos += chunk)
+            h.feed(in.subspan(pos, std::min(chunk, in.size() - pos)));
+    } else {
+        std::size_t i = 0;
+        while (i < in.size()) {
+            const std::uint8_t header = in[i++];
+            std::size_t len = header & 0x3Fu;
+            if (len > in.size() - i) len = in.size() - i;
+            h.feed(in.subspan(i, len));
+            i += len;
+            if (header & 0x40u) h.silence();
+        }
+    }
+    h.silence();
+    return 0;
+}

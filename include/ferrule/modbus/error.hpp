@@ -1,0 +1,53 @@
+// Modbus exception responses (AP §7) as std::error_code values of modbus::device_category(),
+// so callers can tell a server's refusal from a transport error (ferrule::errc: timeout = no
+// reply, bad_checksum = CRC error). The value is the exception code as the server sent it.
+#pragma once
+
+#include <system_error> // std::string of message(): the category interface needs it
+
+#include "ferrule/modbus/constants.hpp"
+
+namespace ferrule::modbus {
+
+class device_category_t final : public std::error_category {
+public:
+    const char* name() const noexcept override { return "modbus"; }
+    std::string message(int ev) const override { return describe(ev); }
+
+    static const char* describe(int ev) noexcept {
+        switch (static_cast<exception_code>(ev)) {
+        case exception_code::illegal_function:
+            return "illegal function: the server does not support this function code";
+        case exception_code::illegal_data_address:
+            return "illegal data address: the address or address + quantity is out of range";
+        case exception_code::illegal_data_value: return "illegal data value in the request";
+        case exception_code::server_device_failure:
+            return "server device failure while performing the action";
+        case exception_code::acknowledge:
+            return "acknowledge: request accepted, processing takes long";
+        case exception_code::server_device_busy: return "server device busy; retry later";
+        case exception_code::negative_acknowledge:
+            return "negative acknowledge: the program function cannot be performed";
+        case exception_code::memory_parity_error:
+            return "memory parity error in the server's record file";
+        case exception_code::gateway_path_unavailable: return "gateway path unavailable";
+        case exception_code::gateway_target_failed:
+            return "gateway target device failed to respond";
+        }
+        return "unknown Modbus exception code";
+    }
+};
+
+inline const std::error_category& device_category() noexcept {
+    static const device_category_t instance;
+    return instance;
+}
+
+inline std::error_code make_error_code(exception_code e) noexcept {
+    return {static_cast<int>(e), device_category()};
+}
+
+} // namespace ferrule::modbus
+
+template <>
+struct std::is_error_code_enum<ferrule::modbus::exception_code> : std::true_type {};

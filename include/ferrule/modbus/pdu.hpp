@@ -1,0 +1,444 @@
+// Modbus PDUs: function code + data, the same on every transport (AP §4.1). Multi-byte
+// fields are big-endian (AP §4.2).
+//
+//   request            FC   fields                                              AP
+//   read bits          1 2  address(2) quantity(2)                              §6.1 §6.2
+//   read registers     3 4  address(2) quantity(2)                              §6.3 §6.4
+//   write single       5 6  address(2) value(2)   (FC5: FF00 on, 0000 off)      §6.5 §6.6
+//   diagnostics        8    sub-function(2) data(2)                             §6.8
+//   write multiple     15   address(2) quantity(2) byte count(1) packed bits    §6.11
+//                      16   address(2) quantity(2) byte count(1) registers      §6.12
+//   read/write         23   read address, read qty, write address, write qty,
+//                           byte count(1), registers                            §6.17
+//   read device id     43   MEI type 14, read device id code, object id         §6.21
+//
+// Responses: FC 1-4 and 23 byte count + data; FC 5, 6, 8 echo the request; FC 15, 16 echo
+// address and quantity; 43/14 a list of objects; an exception is FC | 0x80 + code (AP §7).
+//
+// encode_request() checks the spec's limits; parse_request() / request_exception() serve a
+// server; parse_response() checks a response against the request it answers;
+// expected_*_length() give the length of a PDU from its first bytes for RTU framing.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <system_error>
+
+#include "ferrule/core/bytes.hpp"
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/result.hpp"
+#include "ferrule/modbus/constants.hpp"
+#include "ferrule/modbus/error.hpp"
+
+namespace ferrule::modbus {
+
+// A request PDU, to encode or as parse_request() decoded it. Fields by function code:
+//   1-4     address, quantity
+//   5, 6    address, value (FC5: 0xFF00 on, 0x0000 off)
+//   8       value = sub-function, data = its 2 data bytes
+//   15      address, quantity (bits), data = ceil(quantity / 8) bytes, LSB first
+//   16      address, quantity, data = 2 * quantity bytes (big-endian registers)
+//   23      address / quantity = read part, write_address / write_quantity, data as FC16
+//   43      mei_type = 14, read_device_id_code 1-4, object_id
+struct request {
+    modbus::function function = modbus::function::read_holding_registers;
+    std::uint16_t address = 0;
+    std::uint16_t quantity = 0;
+    std::uint16_t write_address = 0;
+    std::uint16_t write_quantity = 0;
+    std::uint16_t value = 0;
+    std::span<const std::uint8_t> data{};
+    std::uint8_t mei_type = mei_read_device_id;
+    std::uint8_t read_device_id_code = 0;
+    std::uint8_t object_id = 0;
+};
+
+// A normal response PDU, checked against its request (data spans the parsed PDU):
+//   1-4, 23  data = packed bits / register bytes, quantity and address as asked
+//   5, 6     address, value echoed
+//   8        value = sub-function, data = its 2 data bytes
+//   15, 16   address, quantity echoed
+//   43/14    data = the objects (id, length, value)…, quantity = their number;
+//            conformity level, more follows, next object id (AP §6.21)
+struct response {
+    modbus::function function = modbus::function::read_holding_registers;
+    std::span<const std::uint8_t> data{};
+    std::uint16_t address = 0;
+    std::uint16_t value = 0;
+    std::uint16_t quantity = 0;
+    std::uint8_t conformity = 0;
+    bool more_follows = false;
+    std::uint8_t next_object_id = 0;
+};
+
+// FC5 coil values (AP §6.5).
+inline constexpr std::uint16_t coil_on = 0xFF00;
+inline constexpr std::uint16_t coil_off = 0x0000;
+
+// expected_*_length(): these bytes cannot start a PDU that can be framed by its length.
+inline constexpr std::size_t no_frame = static_cast<std::size_t>(-1);
+
+constexpr std::size_t packed_size(std::size_t bits) noexcept {
+    return (bits + 7) / 8;
+}
+
+namespace detail {
+constexpr bool fits(std::uint16_t address, std::uint16_t quantity) noexcept {
+    return std::uint32_t{address} + quantity <= 0x10000u;
+}
+constexpr bool in(std::uint16_t v, std::uint16_t lo, std::uint16_t hi) noexcept {
+    return v >= lo && v <= hi;
+}
+constexpr std::size_t limited(std::size_t n) noexcept {
+    return n > max_pdu ? no_frame : n;
+}
+} // namespace detail
+
+// Writes the request PDU to `out`; invalid_argument for what the spec does not allow
+// (quantities beyond AP §6's limits, address + quantity beyond 65536, a data size that does
+// not match the quantity, an FC5 value other than FF00 / 0000, FC8 data other than 2 bytes).
+inline result<std::size_t> encode_request(const request& r, std::span<std::uint8_t> out) noexcept {
+    std::array<std::uint8_t, max_pdu> b{};
+    std::size_t n = 5;
+    b[0] = static_cast<std::uint8_t>(r.function);
+    store_be16(&b[1], r.address);
+    store_be16(&b[3], r.quantity);
+    switch (r.function) {
+    case function::read_coils:
+    case function::read_discrete_inputs:
+        if (!detail::in(r.quantity, 1, max_read_bits) || !detail::fits(r.address, r.quantity))
+            return errc::invalid_argument;
+        break;
+    case function::read_holding_registers:
+    case function::read_input_registers:
+        if (!detail::in(r.quantity, 1, max_read_registers) || !detail::fits(r.address, r.quantity))
+            return errc::invalid_argument;
+        break;
+    case function::write_single_coil:
+        if (r.value != coil_on && r.value != coil_off) return errc::invalid_argument;
+        store_be16(&b[3], r.value);
+        break;
+    case function::write_single_register: store_be16(&b[3], r.value); break;
+    case function::diagnostics:
+        if (r.data.size() != 2) return errc::invalid_argument;
+        store_be16(&b[1], r.value);
+        b[3] = r.data[0];
+        b[4] = r.data[1];
+        break;
+    case function::write_multiple_coils:
+    case function::write_multiple_registers: {
+        const bool coils = r.function == function::write_multiple_coils;
+        const std::size_t bytes = coils ? packed_size(r.quantity) : 2u * r.quantity;
+        if (!detail::in(r.quantity, 1, coils ? max_write_bits : max_write_registers) ||
+            !detail::fits(r.address, r.quantity) || r.data.size() != bytes)
+            return errc::invalid_argument;
+        b[5] = static_cast<std::uint8_t>(bytes);
+        for (std::size_t i = 0; i < bytes; ++i) b[6 + i] = r.data[i];
+        n = 6 + bytes;
+        break;
+    }
+    case function::read_write_multiple_registers:
+        if (!detail::in(r.quantity, 1, max_read_registers) ||
+            !detail::in(r.write_quantity, 1, max_rw_write_registers) ||
+            !detail::fits(r.address, r.quantity) ||
+            !detail::fits(r.write_address, r.write_quantity) ||
+            r.data.size() != 2u * r.write_quantity)
+            return errc::invalid_argument;
+        store_be16(&b[5], r.write_address);
+        store_be16(&b[7], r.write_quantity);
+        b[9] = static_cast<std::uint8_t>(r.data.size());
+        for (std::size_t i = 0; i < r.data.size(); ++i) b[10 + i] = r.data[i];
+        n = 10 + r.data.size();
+        break;
+    case function::encapsulated_interface:
+        if (r.mei_type != mei_read_device_id || !detail::in(r.read_device_id_code, 1, 4))
+            return errc::invalid_argument;
+        b[1] = r.mei_type;
+        b[2] = r.read_device_id_code;
+        b[3] = r.object_id;
+        n = 4;
+        break;
+    default: return errc::invalid_argument;
+    }
+    if (out.size() < n) return errc::buffer_too_small;
+    for (std::size_t i = 0; i < n; ++i) out[i] = b[i];
+    return n;
+}
+
+// Length of a request PDU from its first bytes: 0 = need more, no_frame = cannot be framed.
+// Besides the function codes of `function`, the other fixed-layout public ones (7, 11, 12,
+// 17, 20-22, 24; AP §6) are framed too, so a server can answer them with exception 01.
+constexpr std::size_t expected_request_length(std::span<const std::uint8_t> p) noexcept {
+    if (p.empty()) return 0;
+    switch (p[0]) {
+    case 1:
+    case 2:
+    case 3:
+    case 4:
+    case 5:
+    case 6:
+    case 8: return 5;
+    case 15:
+    case 16: return p.size() < 6 ? 0 : detail::limited(6u + p[5]);
+    case 23: return p.size() < 10 ? 0 : detail::limited(10u + p[9]);
+    case 43:
+        if (p.size() < 2) return 0;
+        return p[1] == mei_read_device_id ? 4 : no_frame;
+    case 7:
+    case 11:
+    case 12:
+    case 17: return 1;
+    case 20:
+    case 21: return p.size() < 2 ? 0 : detail::limited(2u + p[1]);
+    case 22: return 7;
+    case 24: return 3;
+    default: return no_frame;
+    }
+}
+
+// Length of a response PDU from its first bytes: 0 = need more, no_frame = cannot be framed.
+constexpr std::size_t expected_response_length(std::span<const std::uint8_t> p) noexcept {
+    if (p.empty()) return 0;
+    if (p[0] > exception_flag) return 2; // FC | 0x80, exception code (AP §7)
+    switch (p[0]) {
+    case 1:
+    case 2:
+    case 3:
+    case 4:
+    case 12:
+    case 17:
+    case 20:
+    case 21:
+    case 23: return p.size() < 2 ? 0 : detail::limited(2u + p[1]);
+    case 5:
+    case 6:
+    case 8:
+    case 11:
+    case 15:
+    case 16: return 5;
+    case 7: return 2;
+    case 22: return 7;
+    case 24: return p.size() < 3 ? 0 : detail::limited(3u + load_be16(&p[1]));
+    case 43: {
+        // 2B 0E code conformity more next count, then count × (id, length, value).
+        if (p.size() < 2) return 0;
+        if (p[1] != mei_read_device_id) return no_frame;
+        if (p.size() < 7) return 0;
+        std::size_t pos = 7;
+        for (unsigned i = 0; i < p[6]; ++i) {
+            if (p.size() < pos + 2) return 0;
+            pos += 2u + p[pos + 1];
+            if (pos > max_pdu) return no_frame;
+        }
+        return pos;
+    }
+    default: return no_frame;
+    }
+}
+
+namespace detail {
+inline constexpr std::uint8_t illegal_function = 1;
+inline constexpr std::uint8_t illegal_data_address = 2;
+inline constexpr std::uint8_t illegal_data_value = 3;
+inline constexpr std::uint8_t not_a_request = 0xFF; // empty: nothing to answer
+
+// Decodes a request PDU into `r`; returns 0, or the exception code it deserves, checked in
+// the order of AP §6's state diagrams: function code (01), quantity and byte count (03),
+// address + quantity (02).
+constexpr std::uint8_t decode_request(std::span<const std::uint8_t> p, request& r) noexcept {
+    if (p.empty()) return not_a_request;
+    const std::size_t want = expected_request_length(p);
+    switch (p[0]) {
+    case 1:
+    case 2:
+    case 3:
+    case 4:
+    case 5:
+    case 6:
+    case 8:
+    case 15:
+    case 16:
+    case 23:
+    case 43: break;
+    default: return illegal_function;
+    }
+    if (p[0] == 43 && p.size() >= 2 && p[1] != mei_read_device_id) return illegal_function;
+    if (want == 0 || want == no_frame || p.size() != want) return illegal_data_value;
+    r = request{};
+    r.function = static_cast<modbus::function>(p[0]);
+    if (p[0] == 43) {
+        r.mei_type = p[1];
+        r.read_device_id_code = p[2];
+        r.object_id = p[3];
+        return in(p[2], 1, 4) ? 0 : illegal_data_value;
+    }
+    r.address = load_be16(&p[1]);
+    r.quantity = load_be16(&p[3]);
+    switch (r.function) {
+    case function::read_coils:
+    case function::read_discrete_inputs:
+        if (!in(r.quantity, 1, max_read_bits)) return illegal_data_value;
+        return fits(r.address, r.quantity) ? 0 : illegal_data_address;
+    case function::read_holding_registers:
+    case function::read_input_registers:
+        if (!in(r.quantity, 1, max_read_registers)) return illegal_data_value;
+        return fits(r.address, r.quantity) ? 0 : illegal_data_address;
+    case function::write_single_coil:
+    case function::write_single_register:
+        r.value = r.quantity;
+        r.quantity = 0;
+        if (r.function == function::write_single_coil && r.value != coil_on && r.value != coil_off)
+            return illegal_data_value;
+        return 0;
+    case function::diagnostics:
+        r.value = r.address;
+        r.address = 0;
+        r.quantity = 0;
+        r.data = p.subspan(3, 2);
+        return 0;
+    case function::write_multiple_coils:
+    case function::write_multiple_registers: {
+        const bool coils = r.function == function::write_multiple_coils;
+        const std::size_t bytes = coils ? packed_size(r.quantity) : 2u * r.quantity;
+        if (!in(r.quantity, 1, coils ? max_write_bits : max_write_registers) || p[5] != bytes)
+            return illegal_data_value;
+        r.data = p.subspan(6);
+        return fits(r.address, r.quantity) ? 0 : illegal_data_address;
+    }
+    case function::read_write_multiple_registers:
+        r.write_address = load_be16(&p[5]);
+        r.write_quantity = load_be16(&p[7]);
+        if (!in(r.quantity, 1, max_read_registers) ||
+            !in(r.write_quantity, 1, max_rw_write_registers) || p[9] != 2u * r.write_quantity)
+            return illegal_data_value;
+        r.data = p.subspan(10);
+        return fits(r.address, r.quantity) && fits(r.write_address, r.write_quantity)
+                   ? 0
+                   : illegal_data_address;
+    default: return illegal_function;
+    }
+}
+} // namespace detail
+
+// A request PDU as a server receives it; errc::malformed when it deserves an exception (ask
+// request_exception() which) or is empty. `data` spans `pdu`.
+inline result<request> parse_request(std::span<const std::uint8_t> pdu) noexcept {
+    request r;
+    if (detail::decode_request(pdu, r) != 0) return errc::malformed;
+    return r;
+}
+
+// The exception code a request deserves before any data is touched: 01 unknown or
+// unsupported function (FC43 with another MEI type too), 03 bad quantity, byte count, PDU
+// length, FC5 value or read device id code, 02 address + quantity beyond 65536; 0 when none
+// (a valid request, or an empty PDU, which gets no answer at all).
+constexpr std::uint8_t request_exception(std::span<const std::uint8_t> pdu) noexcept {
+    request r;
+    const std::uint8_t code = detail::decode_request(pdu, r);
+    return code == detail::not_a_request ? 0 : code;
+}
+
+// [FC | 0x80][code] (AP §7).
+inline result<std::size_t> encode_exception(function fc, exception_code code,
+                                            std::span<std::uint8_t> out) noexcept {
+    if (out.size() < 2) return errc::buffer_too_small;
+    out[0] = static_cast<std::uint8_t>(static_cast<std::uint8_t>(fc) | exception_flag);
+    out[1] = static_cast<std::uint8_t>(code);
+    return std::size_t{2};
+}
+
+// One object of a Read Device Identification response (AP §6.21).
+struct device_id_object {
+    std::uint8_t id = 0;
+    std::span<const std::uint8_t> value{};
+};
+
+// Takes the next object off `objects` (response::data of FC43/14); false at the end.
+constexpr bool next_device_id_object(std::span<const std::uint8_t>& objects,
+                                     device_id_object& out) noexcept {
+    if (objects.size() < 2 || objects.size() < 2u + objects[1]) return false;
+    out.id = objects[0];
+    out.value = objects.subspan(2, objects[1]);
+    objects = objects.subspan(2u + objects[1]);
+    return true;
+}
+
+// The response PDU `pdu` to `sent`. An exception response gives the server's code as a
+// modbus::device_category() error; another function code errc::unexpected_type; a wrong
+// length, byte count or echo errc::malformed.
+inline result<response> parse_response(const request& sent,
+                                       std::span<const std::uint8_t> pdu) noexcept {
+    if (pdu.empty()) return errc::malformed;
+    const auto fc = static_cast<std::uint8_t>(sent.function);
+    if (pdu[0] == (fc | exception_flag)) {
+        if (pdu.size() != 2 || pdu[1] == 0) return errc::malformed;
+        return std::error_code(pdu[1], device_category());
+    }
+    if (pdu[0] != fc) return errc::unexpected_type;
+    response r;
+    r.function = sent.function;
+    r.address = sent.address;
+    r.quantity = sent.quantity;
+    switch (sent.function) {
+    case function::read_coils:
+    case function::read_discrete_inputs:
+    case function::read_holding_registers:
+    case function::read_input_registers:
+    case function::read_write_multiple_registers: {
+        const bool bits = sent.function == function::read_coils ||
+                          sent.function == function::read_discrete_inputs;
+        const std::size_t bytes = bits ? packed_size(sent.quantity) : 2u * sent.quantity;
+        if (pdu.size() < 2 || pdu[1] != bytes || pdu.size() != 2 + bytes) return errc::malformed;
+        r.data = pdu.subspan(2);
+        return r;
+    }
+    case function::write_single_coil:
+    case function::write_single_register:
+    case function::write_multiple_coils:
+    case function::write_multiple_registers: {
+        if (pdu.size() != 5 || load_be16(&pdu[1]) != sent.address) return errc::malformed;
+        const std::uint16_t second = load_be16(&pdu[3]);
+        const bool single = sent.function == function::write_single_coil ||
+                            sent.function == function::write_single_register;
+        if (second != (single ? sent.value : sent.quantity)) return errc::malformed;
+        r.value = single ? second : std::uint16_t{0};
+        r.quantity = single ? std::uint16_t{0} : second;
+        return r;
+    }
+    case function::diagnostics: {
+        // Echo of the sub-function; Return Query Data echoes the data too (AP §6.8.1).
+        if (pdu.size() != 5 || load_be16(&pdu[1]) != sent.value) return errc::malformed;
+        r.value = sent.value;
+        r.address = 0;
+        r.quantity = 0;
+        r.data = pdu.subspan(3, 2);
+        if (sent.value == static_cast<std::uint16_t>(diag_sub::return_query_data) &&
+            (sent.data.size() != 2 || sent.data[0] != pdu[3] || sent.data[1] != pdu[4]))
+            return errc::malformed;
+        return r;
+    }
+    case function::encapsulated_interface: {
+        // 2B 0E code conformity more-follows(00/FF) next-object count objects… (AP §6.21)
+        if (pdu.size() < 7 || pdu[1] != mei_read_device_id || pdu[2] != sent.read_device_id_code)
+            return errc::malformed;
+        if (pdu[4] != 0x00 && pdu[4] != 0xFF) return errc::malformed;
+        r.address = 0;
+        r.conformity = pdu[3];
+        r.more_follows = pdu[4] == 0xFF;
+        r.next_object_id = pdu[5];
+        r.quantity = pdu[6];
+        r.data = pdu.subspan(7);
+        std::span<const std::uint8_t> rest = r.data;
+        device_id_object o;
+        for (unsigned i = 0; i < pdu[6]; ++i)
+            if (!next_device_id_object(rest, o)) return errc::malformed;
+        if (!rest.empty()) return errc::malformed;
+        return r;
+    }
+    }
+    return errc::invalid_argument;
+}
+
+} // namespace ferrule::modbus

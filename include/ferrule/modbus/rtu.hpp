@@ -1,0 +1,172 @@
+// Modbus RTU ADU (SL §2.4, §2.5.1): [address][PDU][CRC lo][CRC hi], at most 256 bytes.
+// CRC-16/MODBUS over address and PDU, low byte first (SL §2.5.1.2, §6.2.2).
+//
+// rtu_decoder frames by the length the function code predicts (expected_response_length /
+// expected_request_length), as libmodbus and tokio-modbus do: the 1.5 / 3.5 character
+// timers do not survive USB adapters and ptys (protocols/modbus_profibus.md §A.3). After a
+// CRC error, or bytes that start no frame, it drops one byte and tries again from the next,
+// so a frame behind garbage is still found.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <system_error>
+
+#include "ferrule/core/checksum.hpp"
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/result.hpp"
+#include "ferrule/modbus/constants.hpp"
+#include "ferrule/modbus/pdu.hpp"
+
+namespace ferrule::modbus {
+
+inline result<std::size_t> encode_rtu(std::uint8_t address, std::span<const std::uint8_t> pdu,
+                                      std::span<std::uint8_t> out) noexcept {
+    if (pdu.empty() || pdu.size() > max_pdu) return errc::invalid_argument;
+    const std::size_t n = pdu.size() + 3;
+    if (out.size() < n) return errc::buffer_too_small;
+    out[0] = address;
+    for (std::size_t i = 0; i < pdu.size(); ++i) out[1 + i] = pdu[i];
+    const std::uint16_t crc = crc16_modbus(out.first(n - 2));
+    out[n - 2] = static_cast<std::uint8_t>(crc);
+    out[n - 1] = static_cast<std::uint8_t>(crc >> 8);
+    return n;
+}
+
+// Splits a byte stream into RTU frames. Feed it with
+//     do { s = d.feed(in); in = in.subspan(s.consumed); … } while (s.what != status::need_more);
+// need_more means every byte given is used and no frame is complete; after an error the
+// decoder may still hold bytes that form a frame, which the next feed() (an empty span is
+// fine) yields. Each CRC error is reported (errc::bad_checksum); a run of bytes that start no
+// frame once (errc::malformed). Addresses are not filtered.
+class rtu_decoder {
+public:
+    enum class accept : std::uint8_t { responses, requests };
+    enum class status : std::uint8_t { need_more, frame, error };
+    struct step {
+        status what = status::need_more;
+        std::size_t consumed = 0; // bytes of the input used; feed the rest again
+        std::error_code ec{};
+    };
+
+    explicit rtu_decoder(accept a = accept::responses) noexcept : accept_(a) {}
+
+    step feed(std::span<const std::uint8_t> in) noexcept {
+        take_frame();
+        if (size_ > 0) {
+            const step s = scan();
+            if (s.what != status::need_more) return s;
+        }
+        for (std::size_t i = 0; i < in.size(); ++i) {
+            buf_[size_++] = in[i];
+            step s = scan();
+            if (s.what != status::need_more) {
+                s.consumed = i + 1;
+                return s;
+            }
+        }
+        return {status::need_more, in.size(), {}};
+    }
+
+    // The line has been silent for t3.5 (SL §2.5.1.1): no byte will complete what is
+    // buffered. Call it like feed(), until need_more: it drops bytes from the front (one
+    // errc::malformed per run) until the rest holds a frame or nothing is left, so a frame
+    // behind a broken one is still found. In requests mode, buffered bytes of a function
+    // code that cannot be framed by length are a frame when their CRC checks (the server
+    // can answer it with exception 01).
+    step finish() noexcept {
+        take_frame();
+        for (;;) {
+            const step s = scan();
+            if (s.what != status::need_more) return s;
+            if (size_ == 0) break;
+            const auto pdu = std::span<const std::uint8_t>(buf_.data() + 1, size_ - 1);
+            if (accept_ == accept::requests && size_ >= 4 &&
+                expected_request_length(pdu) == no_frame && crc16_modbus(view(size_)) == 0) {
+                frame_size_ = size_;
+                garbage_ = false;
+                return {status::frame, 0, {}};
+            }
+            if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
+        }
+        garbage_ = false;
+        return {};
+    }
+
+    // The frame just yielded (valid until the next feed(), finish() or reset()).
+    std::uint8_t address() const noexcept { return frame_size_ ? buf_[0] : std::uint8_t{0}; }
+    std::span<const std::uint8_t> pdu() const noexcept {
+        if (frame_size_ == 0) return {};
+        return {buf_.data() + 1, frame_size_ - 3};
+    }
+    std::span<const std::uint8_t> adu() const noexcept { return {buf_.data(), frame_size_}; }
+
+    void reset() noexcept {
+        size_ = frame_size_ = 0;
+        garbage_ = false;
+    }
+    // Bytes are buffered that may become a frame.
+    bool in_frame() const noexcept { return size_ > frame_size_; }
+    // Bytes dropped: garbage, bytes of frames with a bad CRC, leftovers at finish().
+    std::size_t skipped() const noexcept { return skipped_; }
+
+private:
+    std::span<const std::uint8_t> view(std::size_t n) const noexcept { return {buf_.data(), n}; }
+
+    // The previous frame's bytes leave the buffer; bytes behind it are looked at again.
+    void take_frame() noexcept {
+        if (frame_size_ == 0) return;
+        for (std::size_t i = frame_size_; i < size_; ++i) buf_[i - frame_size_] = buf_[i];
+        size_ -= frame_size_;
+        frame_size_ = 0;
+    }
+
+    // Drops the first byte, so the next scan() starts from the one after it. A malformed
+    // byte right after another is not reported again.
+    bool drop(std::error_code ec) noexcept {
+        for (std::size_t i = 1; i < size_; ++i) buf_[i - 1] = buf_[i];
+        --size_;
+        ++skipped_;
+        const bool report = ec != errc::malformed || !garbage_;
+        garbage_ = ec == errc::malformed;
+        return report;
+    }
+
+    // Looks at the buffered bytes until a frame, a reported error, or the need for more.
+    step scan() noexcept {
+        for (;;) {
+            if (size_ < 2) return {};
+            const auto pdu = std::span<const std::uint8_t>(buf_.data() + 1, size_ - 1);
+            const std::size_t len = accept_ == accept::requests ? expected_request_length(pdu)
+                                                                : expected_response_length(pdu);
+            if (len == 0) return {};
+            if (len == no_frame) {
+                // A request of an unknown function code waits for finish() (the silence after
+                // it), as long as it can still fit an ADU.
+                if (accept_ == accept::requests && size_ < max_rtu_adu) return {};
+                if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
+                continue;
+            }
+            const std::size_t total = len + 3;
+            if (size_ < total) return {};
+            if (crc16_modbus(view(total)) != 0) {
+                drop(errc::bad_checksum);
+                return {status::error, 0, errc::bad_checksum};
+            }
+            frame_size_ = total;
+            garbage_ = false;
+            return {status::frame, 0, {}};
+        }
+    }
+
+    std::array<std::uint8_t, max_rtu_adu> buf_{};
+    std::size_t size_ = 0;       // bytes buffered
+    std::size_t frame_size_ = 0; // a frame was yielded: its bytes at the front
+    std::size_t skipped_ = 0;
+    accept accept_;
+    bool garbage_ = false; // a run of dropped bytes has been reported
+};
+
+} // namespace ferrule::modbus

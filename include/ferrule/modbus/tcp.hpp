@@ -1,0 +1,122 @@
+// Modbus TCP ADU (TCP §3.1.2, §3.1.3): the MBAP header, then the PDU.
+//
+//   transaction id (2)  echoed by the server: pairs a response with its request
+//   protocol id (2)     0 = Modbus
+//   length (2)          bytes that follow: unit id + PDU, 2…254
+//   unit id (1)         the server behind a gateway (serial address), else 0xFF or 0
+//
+// All fields big-endian. There is no checksum: TCP carries none (TCP §3.1.3).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <system_error>
+
+#include "ferrule/core/bytes.hpp"
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/result.hpp"
+#include "ferrule/modbus/constants.hpp"
+
+namespace ferrule::modbus {
+
+inline result<std::size_t> encode_tcp(std::uint16_t transaction, std::uint8_t unit,
+                                      std::span<const std::uint8_t> pdu,
+                                      std::span<std::uint8_t> out) noexcept {
+    if (pdu.empty() || pdu.size() > max_pdu) return errc::invalid_argument;
+    const std::size_t n = mbap_size + pdu.size();
+    if (out.size() < n) return errc::buffer_too_small;
+    store_be16(&out[0], transaction);
+    store_be16(&out[2], 0);
+    store_be16(&out[4], static_cast<std::uint16_t>(pdu.size() + 1));
+    out[6] = unit;
+    for (std::size_t i = 0; i < pdu.size(); ++i) out[mbap_size + i] = pdu[i];
+    return n;
+}
+
+// Splits a TCP byte stream into ADUs; the step API of rtu_decoder. A header with a protocol
+// id other than 0 or a length outside 2…254 is errc::malformed (reported once per run);
+// one byte is dropped and framing tried again from the next.
+class tcp_decoder {
+public:
+    enum class status : std::uint8_t { need_more, frame, error };
+    struct step {
+        status what = status::need_more;
+        std::size_t consumed = 0;
+        std::error_code ec{};
+    };
+
+    step feed(std::span<const std::uint8_t> in) noexcept {
+        take_frame();
+        if (size_ > 0) {
+            const step s = scan();
+            if (s.what != status::need_more) return s;
+        }
+        for (std::size_t i = 0; i < in.size(); ++i) {
+            buf_[size_++] = in[i];
+            step s = scan();
+            if (s.what != status::need_more) {
+                s.consumed = i + 1;
+                return s;
+            }
+        }
+        return {status::need_more, in.size(), {}};
+    }
+
+    // The frame just yielded (valid until the next feed() or reset()).
+    std::uint16_t transaction() const noexcept {
+        return frame_size_ ? load_be16(buf_.data()) : std::uint16_t{0};
+    }
+    std::uint8_t unit() const noexcept { return frame_size_ ? buf_[6] : std::uint8_t{0}; }
+    std::span<const std::uint8_t> pdu() const noexcept {
+        if (frame_size_ == 0) return {};
+        return {buf_.data() + mbap_size, frame_size_ - mbap_size};
+    }
+    std::span<const std::uint8_t> adu() const noexcept { return {buf_.data(), frame_size_}; }
+
+    void reset() noexcept {
+        size_ = frame_size_ = 0;
+        garbage_ = false;
+    }
+    bool in_frame() const noexcept { return size_ > frame_size_; }
+    std::size_t skipped() const noexcept { return skipped_; }
+
+private:
+    void take_frame() noexcept {
+        if (frame_size_ == 0) return;
+        for (std::size_t i = frame_size_; i < size_; ++i) buf_[i - frame_size_] = buf_[i];
+        size_ -= frame_size_;
+        frame_size_ = 0;
+    }
+
+    step scan() noexcept {
+        for (;;) {
+            const bool bad_protocol = size_ >= 4 && load_be16(&buf_[2]) != 0;
+            std::size_t length = 0;
+            if (size_ >= 6) length = load_be16(&buf_[4]);
+            const bool bad_length = size_ >= 6 && (length < 2 || length > max_pdu + 1);
+            if (!bad_protocol && !bad_length) {
+                if (size_ < 6 || size_ < 6 + length) return {};
+                frame_size_ = 6 + length;
+                garbage_ = false;
+                return {status::frame, 0, {}};
+            }
+            for (std::size_t i = 1; i < size_; ++i) buf_[i - 1] = buf_[i];
+            --size_;
+            ++skipped_;
+            if (!garbage_) {
+                garbage_ = true;
+                return {status::error, 0, errc::malformed};
+            }
+        }
+    }
+
+    std::array<std::uint8_t, max_tcp_adu> buf_{};
+    std::size_t size_ = 0;
+    std::size_t frame_size_ = 0;
+    std::size_t skipped_ = 0;
+    bool garbage_ = false;
+};
+
+} // namespace ferrule::modbus
