@@ -1,0 +1,396 @@
+// Modbus client session (RTU or TCP), sans-I/O: one transaction at a time.
+//
+// Behaviour (SL §2.4.1, §2.5.1.1; TCP §3.1.3; protocols/modbus_profibus.md §A.3-§A.5, §C.7):
+//   * RTU: before each request the line has been silent for inter_frame_gap (t3.5; 1.75 ms
+//     above 19200 baud), counted from the end of the last byte on the line: our request's
+//     last byte (its wire time computed from the serial format) or the last byte received.
+//     0 sends at once (virtual links). TCP keeps no gap
+//   * the response deadline is the end of the request + response_timeout; a response that
+//     has begun by then may finish until the deadline + the wire time of 256 bytes, unless
+//     inter_byte_timeout (RTU, 0 = off) ends it sooner: silence inside a frame longer than
+//     that is errc::frame_gap (SL §2.5.1.1 allows 1.5 characters; USB adapters and ptys
+//     merge and split bytes, hence off by default)
+//   * RTU responses are framed by length (rtu_decoder): bytes before the response that start
+//     no frame are skipped; after a CRC error or such garbage the attempt ends once the line
+//     has been silent for t3.5 (the frame is over, SL §2.5.1.1; at the latest at the
+//     deadline + the wire time of 256 bytes) unless a frame is found in what was received
+//   * the response must come from the unit asked (else errc::unexpected_address) and answer
+//     the request: function code, byte count, echo (parse_response()). TCP: every attempt
+//     has a new transaction id; a response with another id is stale, dropped and counted
+//   * broadcast (RTU unit 0, write functions only, SL §2.2) and FC8 "force listen only"
+//     (AP §6.8.1) get no response: the session keeps the line quiet for `turnaround` (SL
+//     §2.4.1 "turnaround delay") and ends with errc::no_response_expected
+//   * failed attempts are resent up to `retries` times; exception responses are the
+//     server's answer and are not resent
+//   * echo_suppression (RTU): adapters whose receiver stays on hand our own request back
+//     first; exactly those bytes are skipped, up to the first byte that differs
+//   * stale input is dropped before each request (discard_stale_input); bytes that arrive
+//     while no response is awaited, or behind the response, are counted as stale
+//
+// Timing. A transaction whose request has n_q bytes, served by a server that starts its
+// response t_d after the request's last byte with n_r bytes, takes
+//     format.chars_time(n_q) + t_d + format.chars_time(n_r)
+// and the next request starts inter_frame_gap after the response's last byte. Reading one
+// register of unit 1 at 9600 8E1 (11-bit characters): request 8 bytes = 9.1667 ms, response
+// 7 bytes = 8.0208 ms, t3.5 = 4.0104 ms.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <system_error>
+
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/serial_format.hpp"
+#include "ferrule/core/session.hpp"
+#include "ferrule/core/time.hpp"
+#include "ferrule/modbus/constants.hpp"
+#include "ferrule/modbus/error.hpp"
+#include "ferrule/modbus/pdu.hpp"
+#include "ferrule/modbus/rtu.hpp"
+#include "ferrule/modbus/tcp.hpp"
+
+namespace ferrule::modbus {
+
+struct client_config {
+    serial_format format = default_format;
+    bool rtu = true; // false: Modbus TCP (MBAP header, no CRC, no gaps)
+    duration response_timeout = std::chrono::seconds(1);  // from the end of the request
+    duration inter_frame_gap = t35(format);               // RTU: silence before a request
+    duration inter_byte_timeout = duration::zero();       // RTU: silence inside a response; 0 = off
+    duration turnaround = std::chrono::milliseconds(100); // after a broadcast
+    unsigned retries = 0;                                 // resends after the first attempt
+    bool discard_stale_input = true;
+    bool echo_suppression = false; // RTU: skip our own request if it comes back first
+};
+
+// Transactions end as succeeded, failed or (broadcasts) neither. The attempt counters
+// (timeouts … unexpected_units) count each failed attempt once, resends included.
+struct client_stats {
+    std::uint32_t transactions = 0;
+    std::uint32_t succeeded = 0;
+    std::uint32_t failed = 0; // exception responses and transport errors included
+    std::uint32_t broadcasts = 0;
+    std::uint32_t timeouts = 0;
+    std::uint32_t bad_checksums = 0;
+    std::uint32_t malformed = 0; // unparseable, wrong function code or echo, gap in a frame
+    std::uint32_t unexpected_units = 0;
+    std::uint32_t exceptions = 0;
+    std::uint32_t resends = 0;
+    std::uint32_t stale_bytes = 0; // no response awaited, behind the response, old TCP ids
+    std::uint32_t echo_bytes = 0;
+};
+
+class client {
+public:
+    explicit client(const client_config& cfg = {}) noexcept : cfg_(cfg) {}
+
+    // Starts a transaction with `unit`. RTU: 1…247, or 0 (broadcast) for FC 5, 6, 15, 16.
+    // TCP: any unit id. invalid_argument for a request encode_request() refuses.
+    std::error_code start(std::uint8_t unit, const request& r) noexcept {
+        if (busy()) return errc::busy;
+        if (cfg_.rtu && unit > max_unit_address) return errc::invalid_argument;
+        const bool broadcast = cfg_.rtu && unit == broadcast_address;
+        if (broadcast && r.function != function::write_single_coil &&
+            r.function != function::write_single_register &&
+            r.function != function::write_multiple_coils &&
+            r.function != function::write_multiple_registers)
+            return errc::invalid_argument;
+        const auto n = encode_request(r, pdu_);
+        if (!n) return n.error();
+        pdu_size_ = *n;
+        sent_ = r;
+        // The request's data lives on in its PDU; the caller's may not.
+        switch (r.function) {
+        case function::diagnostics: sent_.data = {pdu_.data() + 3, 2}; break;
+        case function::write_multiple_coils:
+        case function::write_multiple_registers:
+            sent_.data = {pdu_.data() + 6, r.data.size()};
+            break;
+        case function::read_write_multiple_registers:
+            sent_.data = {pdu_.data() + 10, r.data.size()};
+            break;
+        default: sent_.data = {}; break;
+        }
+        unit_ = unit;
+        no_reply_ =
+            broadcast || (r.function == function::diagnostics &&
+                          r.value == static_cast<std::uint16_t>(diag_sub::force_listen_only));
+        if (cfg_.rtu) tx_size_ = *encode_rtu(unit, pdu(), tx_);
+        attempts_ = 0;
+        error_ = {};
+        response_ = {};
+        ++stats_.transactions;
+        state_ = state::pending_send;
+        return {};
+    }
+
+    session_action next(time_point now) noexcept {
+        switch (state_) {
+        case state::idle: return session_action::idle();
+        case state::done: return session_action::done();
+        case state::pending_send:
+            if (now < send_after_) return session_action::wait_until(send_after_);
+            return send(now);
+        case state::no_reply: {
+            const time_point quiet = tx_end_ + cfg_.turnaround;
+            if (now < quiet) return session_action::wait_until(quiet);
+            finish(errc::no_response_expected);
+            return session_action::done();
+        }
+        case state::awaiting: {
+            const time_point deadline = deadline_now();
+            if (now < deadline) return session_action::wait_until(deadline);
+            expire(deadline);
+            return next(now);
+        }
+        }
+        return session_action::idle();
+    }
+
+    void on_receive(std::span<const std::uint8_t> in, time_point now) noexcept {
+        if (in.empty()) return;
+        if (cfg_.rtu) {
+            hold(now, cfg_.inter_frame_gap); // the line is busy until now
+            if (state_ == state::awaiting && cfg_.inter_byte_timeout > duration::zero() &&
+                rtu_.in_frame() &&
+                now - cfg_.format.chars_time(in.size()) - last_rx_ > cfg_.inter_byte_timeout) {
+                last_rx_ = now;
+                fail(errc::frame_gap, true);
+                stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
+                return;
+            }
+        }
+        last_rx_ = now;
+        if (state_ != state::awaiting) {
+            stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
+            return;
+        }
+        if (echo_pos_ < tx_size_) {
+            while (echo_pos_ < tx_size_ && !in.empty() && in[0] == tx_[echo_pos_]) {
+                ++echo_pos_;
+                in = in.subspan(1);
+            }
+            if (echo_pos_ == tx_size_) {
+                stats_.echo_bytes += static_cast<std::uint32_t>(tx_size_);
+            } else if (!in.empty()) {
+                // Not our echo: the bytes held back (address and function code match the
+                // request's) begin the response.
+                const std::size_t held = echo_pos_;
+                echo_pos_ = tx_size_;
+                heard_ = true;
+                feed_rtu({tx_.data(), held});
+                if (state_ != state::awaiting) {
+                    stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
+                    return;
+                }
+            }
+            if (in.empty()) return;
+        }
+        heard_ = true;
+        cfg_.rtu ? feed_rtu(in) : feed_tcp(in);
+    }
+
+    void on_transport_error(std::error_code ec) noexcept {
+        if (!busy()) return;
+        ++stats_.failed;
+        finish(ec);
+    }
+
+    // Outcome of the finished transaction: empty on success; errc::no_response_expected for
+    // a broadcast; otherwise the cause of the last failed attempt, a ferrule::errc or a
+    // modbus::device_category() exception code.
+    std::error_code error() const noexcept { return error_; }
+    // The response of a successful transaction; its data spans the session's buffer, valid
+    // until the next start().
+    const modbus::response& response() const noexcept { return response_; }
+    // The request PDU and the ADU as last sent.
+    std::span<const std::uint8_t> pdu() const noexcept { return {pdu_.data(), pdu_size_}; }
+    std::span<const std::uint8_t> request_bytes() const noexcept { return {tx_.data(), tx_size_}; }
+    std::uint8_t unit() const noexcept { return unit_; }
+    std::uint16_t transaction() const noexcept { return transaction_; } // TCP: last id sent
+    unsigned attempts() const noexcept { return attempts_; }
+    bool busy() const noexcept {
+        return state_ == state::pending_send || state_ == state::awaiting ||
+               state_ == state::no_reply;
+    }
+    // Done -> idle once the result has been read (a new start does this too).
+    void clear() noexcept {
+        if (state_ == state::done) state_ = state::idle;
+    }
+
+    const client_stats& stats() const noexcept { return stats_; }
+    const client_config& config() const noexcept { return cfg_; }
+
+private:
+    enum class state : std::uint8_t { idle, pending_send, awaiting, no_reply, done };
+
+    session_action send(time_point now) noexcept {
+        if (++attempts_ > 1) ++stats_.resends;
+        if (!cfg_.rtu) {
+            ++transaction_;
+            tx_size_ = *encode_tcp(transaction_, unit_, pdu(), tx_);
+        }
+        tx_end_ = cfg_.rtu ? now + cfg_.format.chars_time(tx_size_) : now;
+        last_rx_ = tx_end_;
+        rtu_.reset();
+        tcp_.reset();
+        heard_ = false;
+        decode_error_ = {};
+        echo_pos_ = cfg_.rtu && cfg_.echo_suppression ? 0 : tx_size_;
+        if (cfg_.rtu) hold(tx_end_, cfg_.inter_frame_gap);
+        if (no_reply_) {
+            ++stats_.broadcasts;
+            hold(tx_end_, cfg_.turnaround);
+            state_ = state::no_reply;
+        } else {
+            state_ = state::awaiting;
+        }
+        return session_action::send({tx_.data(), tx_size_}, cfg_.discard_stale_input);
+    }
+
+    time_point deadline_now() const noexcept {
+        const time_point base = tx_end_ + cfg_.response_timeout;
+        if (!cfg_.rtu || (!decode_error_ && !rtu_.in_frame())) return base;
+        // Bytes are arriving: they may go on until the wire time of a whole ADU past base.
+        const time_point late = base + cfg_.format.chars_time(max_rtu_adu);
+        if (decode_error_) {
+            // Garbage or a bad CRC: the attempt ends when the line has been silent for t3.5
+            // (SL §2.5.1.1), that is when a byte begun by then would have arrived.
+            const time_point silent = last_rx_ + t35(cfg_.format) + cfg_.format.char_time();
+            return silent < late ? silent : late;
+        }
+        if (cfg_.inter_byte_timeout == duration::zero()) return late;
+        const time_point gap = last_rx_ + cfg_.format.char_time() + cfg_.inter_byte_timeout;
+        return gap < late ? gap : late;
+    }
+
+    void expire(time_point deadline) noexcept {
+        const duration ibt = cfg_.inter_byte_timeout;
+        const bool gap = cfg_.rtu && !decode_error_ && rtu_.in_frame() && ibt > duration::zero() &&
+                         deadline == last_rx_ + cfg_.format.char_time() + ibt;
+        if (cfg_.rtu && (decode_error_ || rtu_.in_frame())) {
+            // The silence ends what was received: a frame in it still counts.
+            rtu_decoder::step s;
+            do {
+                s = rtu_.finish();
+                if (s.what == rtu_decoder::status::error && !decode_error_) decode_error_ = s.ec;
+                if (s.what == rtu_decoder::status::frame) {
+                    evaluate(rtu_.address(), rtu_.pdu());
+                    if (state_ != state::awaiting) return;
+                }
+            } while (s.what != rtu_decoder::status::need_more);
+        }
+        if (gap)
+            fail(errc::frame_gap, true);
+        else if (decode_error_)
+            fail(decode_error_, true);
+        else
+            fail(heard_ ? errc::malformed : errc::timeout, true);
+    }
+
+    void feed_rtu(std::span<const std::uint8_t> in) noexcept {
+        rtu_decoder::step s;
+        do {
+            s = rtu_.feed(in);
+            in = in.subspan(s.consumed);
+            if (s.what == rtu_decoder::status::error && !decode_error_) decode_error_ = s.ec;
+            if (s.what == rtu_decoder::status::frame) evaluate(rtu_.address(), rtu_.pdu());
+        } while (s.what != rtu_decoder::status::need_more && state_ == state::awaiting);
+        stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
+    }
+
+    void feed_tcp(std::span<const std::uint8_t> in) noexcept {
+        tcp_decoder::step s;
+        do {
+            s = tcp_.feed(in);
+            in = in.subspan(s.consumed);
+            if (s.what == tcp_decoder::status::error && !decode_error_) decode_error_ = s.ec;
+            if (s.what != tcp_decoder::status::frame) continue;
+            if (tcp_.transaction() != transaction_) {
+                stats_.stale_bytes += static_cast<std::uint32_t>(tcp_.adu().size());
+                continue;
+            }
+            evaluate(tcp_.unit(), tcp_.pdu());
+        } while (s.what != tcp_decoder::status::need_more && state_ == state::awaiting);
+        stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
+    }
+
+    void evaluate(std::uint8_t unit, std::span<const std::uint8_t> pdu) noexcept {
+        if (unit != unit_) {
+            fail(errc::unexpected_address, true);
+            return;
+        }
+        // The decoder's buffer is reused by the next feed(): keep the PDU.
+        for (std::size_t i = 0; i < pdu.size(); ++i) rx_[i] = pdu[i];
+        const auto parsed = parse_response(sent_, {rx_.data(), pdu.size()});
+        if (!parsed) {
+            const bool exception = parsed.error().category() == device_category();
+            fail(parsed.error(), !exception);
+            return;
+        }
+        response_ = *parsed;
+        ++stats_.succeeded;
+        finish({});
+    }
+
+    void fail(std::error_code ec, bool may_retry) noexcept {
+        if (ec == errc::timeout)
+            ++stats_.timeouts;
+        else if (ec == errc::bad_checksum)
+            ++stats_.bad_checksums;
+        else if (ec == errc::unexpected_address)
+            ++stats_.unexpected_units;
+        else if (ec.category() == device_category())
+            ++stats_.exceptions;
+        else
+            ++stats_.malformed;
+        if (may_retry && attempts_ <= cfg_.retries) {
+            error_ = ec; // the cause so far, replaced by the final outcome
+            state_ = state::pending_send;
+            return;
+        }
+        ++stats_.failed;
+        finish(ec);
+    }
+
+    void finish(std::error_code ec) noexcept {
+        error_ = ec;
+        state_ = state::done;
+    }
+
+    // No request before t + quiet.
+    void hold(time_point t, duration quiet) noexcept {
+        if (t + quiet > send_after_) send_after_ = t + quiet;
+    }
+
+    client_config cfg_;
+    client_stats stats_{};
+    state state_ = state::idle;
+    request sent_{};
+    modbus::response response_{};
+    std::array<std::uint8_t, max_pdu> pdu_{};
+    std::size_t pdu_size_ = 0;
+    std::array<std::uint8_t, max_tcp_adu> tx_{};
+    std::size_t tx_size_ = 0;
+    std::array<std::uint8_t, max_pdu> rx_{};
+    rtu_decoder rtu_{rtu_decoder::accept::responses};
+    tcp_decoder tcp_{};
+    time_point send_after_ = time_point::min();
+    time_point tx_end_{};
+    time_point last_rx_{};
+    std::error_code error_{};
+    std::error_code decode_error_{}; // garbage or a bad CRC in this attempt
+    std::size_t echo_pos_ = 0;       // bytes of our echo matched so far
+    unsigned attempts_ = 0;
+    std::uint16_t transaction_ = 0;
+    std::uint8_t unit_ = 0;
+    bool no_reply_ = false;
+    bool heard_ = false; // bytes other than our echo since the request
+};
+
+static_assert(master_session<client>);
+
+} // namespace ferrule::modbus
