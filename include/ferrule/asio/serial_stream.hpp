@@ -1,22 +1,25 @@
-// serial_stream: a ferrule::byte_stream over an asio serial port, so the blocking driver
-// ferrule::run() and every protocol's access helpers work on a real port (or a pty).
-// Time is the host's steady clock. An optional tap sees every chunk written and read, with
-// its time, for tracing.
+// serial_stream, tcp_stream: a ferrule::byte_stream over an asio serial port or TCP socket,
+// so the blocking driver ferrule::run() and every protocol's access helpers work on a real
+// port (or a pty), or on a Modbus TCP connection. Time is the host's steady clock. An
+// optional tap sees every chunk written and read, with its time, for tracing.
 #pragma once
 
 #include <termios.h>
 
 #include <asio/io_context.hpp>
+#include <asio/ip/tcp.hpp>
 #include <asio/read.hpp>
 #include <asio/serial_port.hpp>
 #include <asio/steady_timer.hpp>
 #include <asio/write.hpp>
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <span>
 #include <system_error>
+#include <type_traits>
 
 #include "ferrule/core/byte_stream.hpp"
 #include "ferrule/core/error.hpp"
@@ -33,12 +36,12 @@ inline time_point steady_now() noexcept {
 enum class direction : std::uint8_t { tx, rx };
 using tap_handler = std::function<void(direction, std::span<const std::uint8_t>, time_point)>;
 
-class serial_stream {
+template <class AsyncStream>
+class blocking_stream {
 public:
     using time_point = ferrule::time_point;
 
-    serial_stream(::asio::io_context& ctx, ::asio::serial_port& port) noexcept
-        : ctx_(ctx), port_(port) {}
+    blocking_stream(::asio::io_context& ctx, AsyncStream& port) noexcept : ctx_(ctx), port_(port) {}
 
     void set_tap(tap_handler tap) { tap_ = std::move(tap); }
 
@@ -81,15 +84,28 @@ public:
     }
 
     // Drops what the port has received and not yet delivered.
-    void discard_input() noexcept { ::tcflush(port_.native_handle(), TCIFLUSH); }
+    void discard_input() noexcept {
+        if constexpr (std::is_same_v<AsyncStream, ::asio::serial_port>) {
+            ::tcflush(port_.native_handle(), TCIFLUSH);
+        } else {
+            std::error_code ec;
+            std::array<std::uint8_t, 256> scratch;
+            while (port_.available(ec) > 0 && !ec) port_.read_some(::asio::buffer(scratch), ec);
+        }
+    }
 
 private:
     ::asio::io_context& ctx_;
-    ::asio::serial_port& port_;
+    AsyncStream& port_;
     tap_handler tap_;
 };
 
+using serial_stream = blocking_stream<::asio::serial_port>;
+using tcp_stream = blocking_stream<::asio::ip::tcp::socket>;
+
 static_assert(session_stream<serial_stream>);
 static_assert(discards_input<serial_stream>);
+static_assert(session_stream<tcp_stream>);
+static_assert(discards_input<tcp_stream>);
 
 } // namespace ferrule::host

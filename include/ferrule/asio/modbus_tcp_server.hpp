@@ -1,0 +1,229 @@
+// modbus_tcp_server: serves one Modbus data model to many TCP clients at once (Modbus
+// Messaging on TCP/IP Implementation Guide V1.0b), with standalone asio.
+//
+//   * each connection has its own modbus::server session (TCP transport) over the shared
+//     model, so a client that sends half a request and stalls holds up nobody else: its
+//     bytes wait in its own session while the others are served
+//   * at most `max_connections` at once; a connection beyond that is accepted and closed at
+//     once (the guide §4.2.1 leaves the number to the server: a closed connection tells the
+//     client, a connection left in the backlog would not)
+//   * a connection that sends nothing for `idle_timeout` is closed (§4.2.1: the server may
+//     close connections it considers idle)
+//   * replies go out in the order of the requests, `processing_time` after each request
+//     (0: at once), written with one write per reply
+//
+// One io_context thread runs the server; the model is only touched from it.
+#pragma once
+
+#include <asio/ip/tcp.hpp>
+#include <asio/steady_timer.hpp>
+#include <asio/write.hpp>
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <list>
+#include <memory>
+#include <system_error>
+#include <vector>
+
+#include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/core/session.hpp"
+#include "ferrule/modbus/data_model.hpp"
+#include "ferrule/modbus/model_ref.hpp"
+#include "ferrule/modbus/server.hpp"
+
+namespace ferrule::host {
+
+struct modbus_tcp_server_options {
+    std::size_t max_connections = 64;
+    duration idle_timeout = std::chrono::seconds(60); // zero: never
+    duration processing_time{};
+};
+
+struct modbus_tcp_server_stats {
+    std::uint64_t accepted = 0;
+    std::uint64_t refused = 0;     // over max_connections
+    std::uint64_t idle_closed = 0; // closed after idle_timeout
+    std::uint64_t closed = 0;      // by the client, or after an I/O error
+    std::uint64_t replies = 0;
+};
+
+template <modbus::data_model M>
+class modbus_tcp_server {
+public:
+    modbus_tcp_server(::asio::any_io_executor ex, M& model, modbus_tcp_server_options o = {})
+        : ex_(ex), acceptor_(ex), model_(model), options_(o) {}
+    modbus_tcp_server(const modbus_tcp_server&) = delete;
+    modbus_tcp_server& operator=(const modbus_tcp_server&) = delete;
+    ~modbus_tcp_server() { close(); }
+
+    // Binds, listens and starts accepting. Port 0 picks a free port (see port()).
+    std::error_code listen(const ::asio::ip::tcp::endpoint& at) {
+        std::error_code ec;
+        acceptor_.open(at.protocol(), ec);
+        if (!ec) acceptor_.set_option(::asio::socket_base::reuse_address(true), ec);
+        if (!ec) acceptor_.bind(at, ec);
+        if (!ec) acceptor_.listen(::asio::socket_base::max_listen_connections, ec);
+        if (ec) return ec;
+        accept();
+        return {};
+    }
+
+    std::uint16_t port() const {
+        std::error_code ec;
+        return acceptor_.local_endpoint(ec).port();
+    }
+
+    // Stops accepting and closes every connection.
+    void close() {
+        std::error_code ec;
+        acceptor_.close(ec);
+        for (auto& c : connections_) c->shut();
+        connections_.clear();
+    }
+
+    std::size_t connections() const noexcept { return connections_.size(); }
+    const modbus_tcp_server_stats& stats() const noexcept { return stats_; }
+
+private:
+    using session_type = modbus::server<modbus::model_ref<M>>;
+
+    class connection : public std::enable_shared_from_this<connection> {
+    public:
+        connection(modbus_tcp_server& owner, ::asio::ip::tcp::socket socket)
+            : owner_(owner), socket_(std::move(socket)), reply_timer_(socket_.get_executor()),
+              idle_timer_(socket_.get_executor()),
+              session_(config(owner.options_), modbus::model_ref<M>(owner.model_)) {}
+
+        void start() {
+            last_activity_ = steady_now();
+            arm_idle();
+            read();
+        }
+
+        void shut() {
+            std::error_code ec;
+            socket_.close(ec);
+            reply_timer_.cancel();
+            idle_timer_.cancel();
+        }
+
+    private:
+        static modbus::server_config config(const modbus_tcp_server_options& o) {
+            modbus::server_config c;
+            c.transport = modbus::transport::tcp;
+            c.processing_time = o.processing_time;
+            return c;
+        }
+
+        void read() {
+            socket_.async_read_some(::asio::buffer(rx_), [self = this->shared_from_this()](
+                                                             std::error_code ec, std::size_t n) {
+                self->on_read(ec, n);
+            });
+        }
+
+        void on_read(std::error_code ec, std::size_t n) {
+            if (ec) return end(false);
+            last_activity_ = steady_now();
+            session_.on_receive({rx_.data(), n}, last_activity_);
+            pump();
+            read();
+        }
+
+        // Hands out every reply that is due; sleeps until the next one.
+        void pump() {
+            for (;;) {
+                const time_point now = steady_now();
+                const session_action a = session_.next(now);
+                if (a.what == session_action::kind::send) {
+                    out_.emplace_back(a.bytes.begin(), a.bytes.end());
+                    ++owner_.stats_.replies;
+                    if (out_.size() == 1) write();
+                    continue;
+                }
+                if (a.what == session_action::kind::wait && a.deadline != never) {
+                    reply_timer_.expires_at(std::chrono::steady_clock::time_point(
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            a.deadline.time_since_epoch())));
+                    reply_timer_.async_wait([self = this->shared_from_this()](std::error_code e) {
+                        if (!e) self->pump();
+                    });
+                }
+                return;
+            }
+        }
+
+        void write() {
+            ::asio::async_write(socket_, ::asio::buffer(out_.front()),
+                                [self = this->shared_from_this()](std::error_code ec, std::size_t) {
+                                    if (ec) return self->end(false);
+                                    self->out_.pop_front();
+                                    if (!self->out_.empty()) self->write();
+                                });
+        }
+
+        void arm_idle() {
+            if (owner_.options_.idle_timeout == duration::zero()) return;
+            const auto left = last_activity_ + owner_.options_.idle_timeout - steady_now();
+            idle_timer_.expires_after(
+                std::chrono::duration_cast<std::chrono::steady_clock::duration>(left));
+            idle_timer_.async_wait([self = this->shared_from_this()](std::error_code e) {
+                if (e) return;
+                if (steady_now() - self->last_activity_ >= self->owner_.options_.idle_timeout)
+                    return self->end(true);
+                self->arm_idle();
+            });
+        }
+
+        void end(bool idle) {
+            if (!socket_.is_open()) return;
+            shut();
+            ++(idle ? owner_.stats_.idle_closed : owner_.stats_.closed);
+            owner_.forget(this);
+        }
+
+        modbus_tcp_server& owner_;
+        ::asio::ip::tcp::socket socket_;
+        ::asio::steady_timer reply_timer_;
+        ::asio::steady_timer idle_timer_;
+        session_type session_;
+        std::array<std::uint8_t, 512> rx_{};
+        std::deque<std::vector<std::uint8_t>> out_;
+        time_point last_activity_{};
+    };
+
+    void accept() {
+        acceptor_.async_accept([this](std::error_code ec, ::asio::ip::tcp::socket socket) {
+            if (ec == ::asio::error::operation_aborted || !acceptor_.is_open()) return;
+            if (!ec) {
+                if (connections_.size() >= options_.max_connections) {
+                    ++stats_.refused;
+                    std::error_code ignored;
+                    socket.close(ignored);
+                } else {
+                    ++stats_.accepted;
+                    auto c = std::make_shared<connection>(*this, std::move(socket));
+                    connections_.push_back(c);
+                    c->start();
+                }
+            }
+            accept();
+        });
+    }
+
+    void forget(connection* c) {
+        connections_.remove_if([c](const std::shared_ptr<connection>& p) { return p.get() == c; });
+    }
+
+    ::asio::any_io_executor ex_;
+    ::asio::ip::tcp::acceptor acceptor_;
+    M& model_;
+    modbus_tcp_server_options options_;
+    modbus_tcp_server_stats stats_{};
+    std::list<std::shared_ptr<connection>> connections_;
+};
+
+} // namespace ferrule::host

@@ -1,0 +1,119 @@
+// modbus_tcp_server on loopback: many clients at once, a stalled client, the connection
+// limit and the idle timeout. The server runs on its own io_context thread; the clients are
+// ferrule's blocking Modbus TCP clients.
+#include <catch2/catch.hpp>
+
+#include <asio/io_context.hpp>
+#include <asio/ip/tcp.hpp>
+#include <asio/write.hpp>
+
+#include <array>
+#include <chrono>
+#include <thread>
+
+#include "ferrule/asio/modbus_tcp_server.hpp"
+#include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/modbus/access.hpp"
+#include "ferrule/modbus/memory_model.hpp"
+
+namespace {
+
+using namespace ferrule;
+using namespace std::chrono_literals;
+namespace mb = ferrule::modbus;
+using model_type = mb::memory_model<8, 8, 16, 8>;
+
+// The server and its thread; the model's holding registers are 100 + i.
+struct running_server {
+    asio::io_context ctx;
+    model_type model;
+    host::modbus_tcp_server<model_type> server;
+    std::thread thread;
+
+    explicit running_server(host::modbus_tcp_server_options o = {})
+        : server(ctx.get_executor(), model, o) {
+        for (std::size_t i = 0; i < 16; ++i)
+            model.holding_registers()[i] = static_cast<std::uint16_t>(100 + i);
+        REQUIRE_FALSE(server.listen({asio::ip::make_address("127.0.0.1"), 0}));
+        thread = std::thread([this] { ctx.run(); });
+    }
+    ~running_server() {
+        asio::post(ctx, [this] { server.close(); });
+        ctx.stop();
+        thread.join();
+    }
+};
+
+struct tcp_client {
+    asio::io_context ctx;
+    asio::ip::tcp::socket socket{ctx};
+    host::tcp_stream line{ctx, socket};
+    mb::client session{config()};
+
+    explicit tcp_client(std::uint16_t port) {
+        socket.connect({asio::ip::make_address("127.0.0.1"), port});
+    }
+    static mb::client_config config() {
+        mb::client_config c;
+        c.rtu = false;
+        c.response_timeout = 2s;
+        return c;
+    }
+    std::error_code read(std::array<std::uint16_t, 4>& out) {
+        return mb::read_holding_registers(line, session, 1, 0, out);
+    }
+    // True when the server has closed the connection (a read ends with EOF).
+    bool closed_by_server() {
+        std::array<std::uint8_t, 8> b{};
+        const auto r = line.read_some(b, line.now() + 2s);
+        return r.bytes == 0 && r.ec && r.ec != make_error_code(errc::timeout);
+    }
+};
+
+} // namespace
+
+TEST_CASE("modbus tcp server answers several clients while one stalls in a half request",
+          "[asio][modbus]") {
+    running_server s;
+    tcp_client stalled(s.server.port());
+    const std::array<std::uint8_t, 3> half_mbap{0x00, 0x01, 0x00};
+    asio::write(stalled.socket, asio::buffer(half_mbap));
+
+    tcp_client a(s.server.port());
+    tcp_client b(s.server.port());
+    std::array<std::uint16_t, 4> regs{};
+    for (int i = 0; i < 20; ++i) {
+        REQUIRE_FALSE(a.read(regs));
+        CHECK(regs == std::array<std::uint16_t, 4>{100, 101, 102, 103});
+        REQUIRE_FALSE(b.read(regs));
+    }
+    CHECK(s.server.stats().replies == 40);
+}
+
+TEST_CASE("modbus tcp server closes connections beyond its limit", "[asio][modbus]") {
+    host::modbus_tcp_server_options o;
+    o.max_connections = 2;
+    running_server s(o);
+    tcp_client a(s.server.port());
+    tcp_client b(s.server.port());
+    std::array<std::uint16_t, 4> regs{};
+    REQUIRE_FALSE(a.read(regs)); // both are accepted before the third arrives
+    REQUIRE_FALSE(b.read(regs));
+    tcp_client c(s.server.port());
+    CHECK(c.closed_by_server());
+    CHECK(s.server.stats().refused == 1);
+    REQUIRE_FALSE(a.read(regs)); // the others go on
+}
+
+TEST_CASE("modbus tcp server closes an idle connection", "[asio][modbus]") {
+    host::modbus_tcp_server_options o;
+    o.idle_timeout = 200ms;
+    running_server s(o);
+    tcp_client a(s.server.port());
+    std::array<std::uint16_t, 4> regs{};
+    REQUIRE_FALSE(a.read(regs));
+    CHECK(a.closed_by_server());
+    CHECK(s.server.stats().idle_closed == 1);
+    tcp_client again(s.server.port()); // a new connection is served as usual
+    CHECK_FALSE(again.read(regs));
+}
