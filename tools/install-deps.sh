@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages needed to build, test, fuzz, benchmark and cross-compile
-# ferrule. Idempotent: when every package is already installed it does nothing (and needs
+# ferrule, and the Modbus peers its tests talk to (libmodbus, pymodbus, mbpoll, socat). Idempotent: when every package is already installed it does nothing (and needs
 # neither root nor the network); set FERRULE_DEPS_FORCE=1 to run apt-get anyway.
 set -euo pipefail
 
@@ -9,6 +9,7 @@ packages=(
     catch2 libbenchmark-dev libasio-dev libcli11-dev libfmt-dev nlohmann-json3-dev
     clang-14 libclang-rt-14-dev
     gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib binutils-arm-none-eabi
+    pkg-config socat libmodbus-dev python3-pymodbus mbpoll
 )
 
 missing=()
