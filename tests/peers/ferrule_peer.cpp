@@ -13,6 +13,7 @@
 #include <asio/signal_set.hpp>
 
 #include <array>
+#include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -22,6 +23,7 @@
 #include "ferrule/asio/modbus_tcp_server.hpp"
 #include "ferrule/asio/serial_port.hpp"
 #include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/asio/serve.hpp"
 #include "ferrule/modbus/access.hpp"
 #include "ferrule/modbus/memory_model.hpp"
 #include "ferrule/modbus/server.hpp"
@@ -69,8 +71,6 @@ private:
     mb::memory_model<map_size, map_size, map_size, map_size> mem_;
 };
 
-volatile std::sig_atomic_t stop = 0;
-
 int serve_rtu(const std::string& path, std::uint8_t unit) {
     asio::io_context ctx;
     asio::serial_port port(ctx);
@@ -85,19 +85,13 @@ int serve_rtu(const std::string& path, std::uint8_t unit) {
     cfg.units = mb::unit_set{unit};
     cfg.format = line_format;
     mb::server<peer_model> server(cfg);
-    std::signal(SIGTERM, [](int) { stop = 1; });
+    static std::atomic<bool> stop{false};
+    std::signal(SIGTERM, [](int) { stop = true; });
     std::printf("ready\n");
     std::fflush(stdout);
-    std::array<std::uint8_t, 256> buf{};
-    while (!stop) {
-        const auto now = line.now();
-        const auto a = server.next(now);
-        if (a.what == ferrule::session_action::kind::send) {
-            (void)line.write(a.bytes);
-            continue;
-        }
-        const auto r = line.read_some(buf, std::min(server.wake_at(), now + 100ms));
-        if (r.bytes > 0) server.on_receive({buf.data(), r.bytes}, line.now());
+    if (auto ec = ferrule::host::serve(line, server, stop)) {
+        std::fprintf(stderr, "serve: %s\n", ec.message().c_str());
+        return 3;
     }
     return 0;
 }
