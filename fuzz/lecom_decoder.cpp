@@ -13,7 +13,9 @@
 //      bytes, fed as one chunk; the decoder sees the data bytes only
 //   3  encode(): a frame made of the input's fields must encode within max_frame_length,
 //      or be refused with invalid_argument; what encodes parses back to the same frame and
-//      comes out of a decoder of its side whole
+//      comes out of a decoder of its side whole. encode_value() writes the value exactly
+//      when the factories of value.hpp could have made it (else 0); for a request,
+//      is_valid_request() and encode_request() agree with encode(), byte for byte
 // Schemes 0-2 end with finish().
 //
 // Invariants (violation -> __builtin_trap):
@@ -184,6 +186,23 @@ struct harness {
     }
 };
 
+// Could the factories of value.hpp have made `v`? (A model of its own, not is_encodable().)
+bool factory_made(const value& v) {
+    switch (v.format) {
+    case value_format::decimal: return v.digits <= value::max_decimals;
+    case value_format::hex:
+        return (v.digits == 2 || v.digits == 4 || v.digits == 8) &&
+               (v.digits == 8 || v.hex >> (4 * v.digits) == 0);
+    case value_format::string:
+        if (v.size > value::max_string) return false;
+        for (std::size_t i = 0; i < v.size; ++i)
+            if (v.bytes[i] < 0x20 || v.bytes[i] > 0x7E) return false;
+        return true;
+    case value_format::octets: return v.size <= value::max_octets;
+    }
+    return false;
+}
+
 // Scheme 3: a frame from the input's bytes, with fields inside and outside their ranges.
 void build_frame(std::span<const std::uint8_t> in) {
     auto take = [&in]() -> std::uint8_t {
@@ -210,8 +229,20 @@ void build_frame(std::span<const std::uint8_t> in) {
     v.size = take() % 32; // beyond bytes.size() is never read: encode() refuses it first
     for (auto& b : v.bytes) b = take();
 
+    std::array<std::uint8_t, max_value_length> text{};
+    const std::size_t text_size = encode_value(v, text.data());
+    FERRULE_CHECK((text_size != 0) == factory_made(v) && text_size <= max_value_length);
+
     std::array<std::uint8_t, max_frame_length + 8> out{};
     const auto n = encode(f, out);
+    if (is_request(f.kind)) {
+        const value* sent = f.kind == frame_kind::send ? &f.value : nullptr;
+        std::array<std::uint8_t, max_request_length> direct{};
+        const std::size_t m = encode_request(f.address, f.code, sent, direct.data());
+        FERRULE_CHECK(is_valid_request(f.address, f.code, sent) == n.has_value());
+        FERRULE_CHECK((m != 0) == n.has_value());
+        if (n) FERRULE_CHECK(m == *n && std::memcmp(direct.data(), out.data(), m) == 0);
+    }
     if (!n) {
         FERRULE_CHECK(n.error() == errc::invalid_argument);
         return;

@@ -31,6 +31,12 @@
 //     ACK; a broadcast -> errc::no_response_expected after one send; a retryable failure
 //     -> all 1 + retries attempts used; code_does_not_exist ends at once
 //   * with no input the session reaches `done` within a bounded amount of virtual time
+//   * each attempt ends as a reference model says: a shadow frame_decoder (accept::replies),
+//     fed what the master is fed, finds the reply telegram, and parse_reply() plus the table
+//     of master.hpp give the outcome (the counter that moves and error()), or the deadline
+//     passes (timeout, or malformed once bytes came); the reply deadline is end of request +
+//     response_timeout, + chars_time(max_reply_length) while the shadow is inside a telegram;
+//     a successful parse is what reply() holds
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <algorithm>
@@ -81,6 +87,11 @@ struct harness {
     bool quiet_since_send = false;
     bool have_wait = false;
     time_point wait_deadline{};
+
+    // Reference model of the attempt under way.
+    frame_decoder shadow{frame_decoder::accept::replies};
+    bool awaiting = false; // a reply is awaited: sent, no outcome yet
+    bool heard = false;    // bytes came while it was
 
     harness(FuzzedDataProvider& p, const master_config& c) : in(p), cfg(c), m(c) {}
 
@@ -185,14 +196,33 @@ struct harness {
         broadcast = is_write && is_group_address(address);
         tx_sends = 0;
         quiet_since_send = false;
+        awaiting = false;
         FERRULE_CHECK(m.busy() && m.attempts() == 0);
         check_always();
     }
 
     // ---- next() ---------------------------------------------------------------------
 
+    // The attempt under way ended with `ec`, counted in `counter`.
+    void check_outcome(const master_stats& before, std::uint32_t master_stats::*counter,
+                       std::error_code ec) {
+        FERRULE_CHECK(outcomes(m.stats()) == outcomes(before) + 1);
+        FERRULE_CHECK(m.stats().*counter == before.*counter + 1);
+        FERRULE_CHECK(m.error() == ec);
+        awaiting = false;
+    }
+
     session_action call_next() {
+        const master_stats before = m.stats();
         const auto act = m.next(now);
+        if (awaiting && outcomes(m.stats()) != outcomes(before)) // the deadline has passed
+            check_outcome(before, heard ? &master_stats::malformed : &master_stats::timeouts,
+                          heard ? errc::malformed : errc::timeout);
+        if (awaiting && act.what == session_action::kind::wait)
+            FERRULE_CHECK(act.deadline == tx_end + cfg.response_timeout +
+                                              (shadow.in_frame()
+                                                   ? cfg.format.chars_time(max_reply_length)
+                                                   : duration::zero()));
         if (have_wait && now < wait_deadline)
             FERRULE_CHECK(act.what == session_action::kind::wait && act.deadline == wait_deadline);
         if (active && !done_seen && quiet_since_send && !broadcast && !transport_failed &&
@@ -239,6 +269,9 @@ struct harness {
             FERRULE_CHECK(now >= tx_end + cfg.response_timeout + cfg.turnaround);
         tx_end = now + cfg.format.chars_time(act.bytes.size());
         quiet_since_send = true;
+        awaiting = !broadcast;
+        heard = false;
+        shadow.reset();
         if (broadcast) hold(tx_end + cfg.broadcast_spacing);
         check_always();
     }
@@ -288,11 +321,73 @@ struct harness {
         if (d.count() > 0) now += d;
     }
 
+    // The table of master.hpp applied to the reply telegram `t`.
+    void expect_reply(std::span<const std::uint8_t> t, const master_stats& before) {
+        using s = master_stats;
+        const auto r = parse_reply(t);
+        if (!r) {
+            const bool bcc = r.error() == errc::bad_checksum;
+            FERRULE_CHECK(bcc || r.error() == errc::malformed);
+            check_outcome(before, bcc ? &s::bad_checksums : &s::malformed, r.error());
+            return;
+        }
+        const frame_kind k = r->kind;
+        FERRULE_CHECK(m.reply().kind == k && m.reply().code == r->code &&
+                      m.reply().value == r->value);
+        if (request.kind == frame_kind::send) {
+            if (k == frame_kind::ack)
+                check_outcome(before, &s::succeeded, {});
+            else if (k == frame_kind::nak)
+                check_outcome(before, &s::device_errors, device_errc::write_refused);
+            else
+                check_outcome(before, &s::malformed, errc::malformed);
+            return;
+        }
+        const bool echoes =
+            k == frame_kind::data || k == frame_kind::fault || k == frame_kind::no_code;
+        if (echoes && r->code != request.code) {
+            check_outcome(before, &s::malformed, errc::unexpected_type);
+            return;
+        }
+        switch (k) {
+        case frame_kind::data: check_outcome(before, &s::succeeded, {}); break;
+        case frame_kind::fault:
+        case frame_kind::nak:
+            check_outcome(before, &s::device_errors, device_errc::checksum_fault);
+            break;
+        case frame_kind::no_code:
+        case frame_kind::eot:
+            check_outcome(before, &s::device_errors, device_errc::code_does_not_exist);
+            break;
+        default: check_outcome(before, &s::malformed, errc::malformed); break;
+        }
+    }
+
     void receive(std::span<const std::uint8_t> bytes) {
         if (bytes.empty()) return;
         now += cfg.format.chars_time(bytes.size()); // the bytes take their wire time
         const std::uint32_t before = outcomes(m.stats());
+        const master_stats stats_before = m.stats();
+        // What the reference model makes of the bytes: the reply telegram, if one ends in them.
+        bool telegram = false;
+        std::array<std::uint8_t, max_frame_length> reply_bytes{};
+        std::size_t reply_size = 0;
+        if (awaiting) {
+            heard = true;
+            for (auto rest = bytes; !rest.empty() && !telegram;) {
+                const auto step = shadow.feed(rest);
+                rest = rest.subspan(step.consumed);
+                if (step.what != frame_decoder::status::frame) continue;
+                telegram = true;
+                reply_size = shadow.frame().size();
+                std::copy_n(shadow.frame().begin(), reply_size, reply_bytes.begin());
+            }
+        }
         m.on_receive(bytes, now);
+        if (telegram)
+            expect_reply({reply_bytes.data(), reply_size}, stats_before);
+        else
+            FERRULE_CHECK(outcomes(m.stats()) == before);
         have_wait = false;
         quiet_since_send = false;
         hold(now + cfg.turnaround);
@@ -379,6 +474,7 @@ struct harness {
                 const std::uint32_t open = reply_sends - aborted - outcomes(m.stats());
                 m.on_transport_error(make_error_code(errc::transport));
                 have_wait = false;
+                awaiting = false;
                 if (was_busy) {
                     transport_failed = true;
                     aborted += open;

@@ -265,6 +265,45 @@ TEST_CASE("encode refuses what LECOM cannot express", "[lecom][frame]") {
           errc::buffer_too_small);
 }
 
+TEST_CASE("encode_request writes a request in place, as encode() does", "[lecom][frame]") {
+    const bytes read46{0x04, 0x30, 0x31, 0x34, 0x36, 0x05};
+    const bytes write11{0x04, 0x33, 0x34, 0x02, 0x31, 0x31, 0x39, 0x35, 0x2E, 0x32, 0x03, 0x13};
+    const value v95_2 = decimal_fixed(952'000);
+    std::array<std::uint8_t, max_request_length> out{};
+    auto written = [&out](std::size_t n) { return bytes(out.begin(), out.begin() + n); };
+
+    CHECK(written(encode_request(1, code(46), nullptr, out.data())) == read46);
+    CHECK(written(encode_request(34, code(11), &v95_2, out.data())) == write11);
+    const frame requests[] = {read_request(99, extended_code(1002, 3)),
+                              write_request(0, code(40), *decimal(0)), // a group SEND
+                              write_request(10, code(6229), *string("82EV")),
+                              write_request(1, extended_code(65535, 255), *hex(0xFFFFFFFF, 8))};
+    for (const frame& f : requests) {
+        const value* v = f.kind == frame_kind::send ? &f.value : nullptr;
+        CHECK(is_valid_request(f.address, f.code, v));
+        CHECK(written(encode_request(f.address, f.code, v, out.data())) == wire(f));
+    }
+
+    // What encode() refuses, encode_request() leaves unwritten and is_valid_request() denies.
+    value bad_hex;
+    bad_hex.format = value_format::hex;
+    bad_hex.digits = 3;
+    const frame refused[] = {read_request(10, code(46)),  // a group never answers
+                             read_request(0, code(46)),   //
+                             read_request(100, code(46)), // beyond 99
+                             write_request(100, code(46), v95_2),
+                             read_request(1, code_address{6230, 0, false}),
+                             read_request(1, code_address{46, 1, false}), // standard: no subcode
+                             write_request(1, code(46), bad_hex)};
+    for (const frame& f : refused) {
+        const value* v = f.kind == frame_kind::send ? &f.value : nullptr;
+        out.fill(0xAA);
+        CHECK_FALSE(is_valid_request(f.address, f.code, v));
+        CHECK(encode_request(f.address, f.code, v, out.data()) == 0);
+        CHECK(encode(f, out).error() == errc::invalid_argument);
+    }
+}
+
 TEST_CASE("the decoder resynchronises after garbage", "[lecom][frame]") {
     const bytes reply{0x02, 0x34, 0x36, 0x33, 0x35, 0x2E, 0x34, 0x03, 0x1D};
     for (std::size_t chunk : {std::size_t{0}, std::size_t{1}, std::size_t{4}}) {

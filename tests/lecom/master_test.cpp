@@ -328,6 +328,21 @@ TEST_CASE("start refuses what no drive would answer or cannot be sent", "[lecom]
     CHECK(m.busy());
 }
 
+TEST_CASE("a refused start leaves the last request as it was", "[lecom][master]") {
+    const std::array<script_step, 1> steps{answer(read46, reply46)};
+    ferrule::script_peer peer(steps);
+    mock_serial line(fmt, &peer);
+    master m;
+    REQUIRE(read(line, m, 1, code(46)));
+    value bad = *string("OK");
+    bad.bytes[1] = etx; // would cut the telegram
+    CHECK(m.start_write(34, code(11), bad) == errc::invalid_argument);
+    CHECK(m.start_write(34, code(11), bad) == errc::invalid_argument);
+    CHECK(bytes(m.request_bytes().begin(), m.request_bytes().end()) == read46);
+    CHECK(m.request().kind == frame_kind::receive);
+    CHECK(m.reply().value.fixed == 354'000);
+}
+
 TEST_CASE("stale input is dropped before the request", "[lecom][master]") {
     const bytes noise{0x55, 0x06, 0x15};
     const std::array<script_step, 1> steps{answer(read46, reply46)};
@@ -421,6 +436,26 @@ TEST_CASE("a reply under way at the deadline may finish, a broken one ends later
     CHECK(read(line, m, 1, code(46)).error() == errc::malformed);
     CHECK(line.now() ==
           second + fmt.chars_time(6) + response_timeout + fmt.chars_time(max_reply_length));
+}
+
+TEST_CASE("a control character that cuts a reply short starts the next telegram",
+          "[lecom][master]") {
+    // As frame_decoder frames replies: STX '1' is cut by ACK, which is the reply to the SEND;
+    // STX '4' is cut by EOT, which is the 4900's bare EOT to the RECEIVE.
+    const bytes cut_by_ack{stx, '1', ack};
+    const bytes cut_by_eot{stx, '4', eot};
+    master_config cfg;
+    cfg.retries = 0;
+    const std::array<script_step, 2> steps{answer(write11, cut_by_ack), answer(read46, cut_by_eot)};
+    ferrule::script_peer peer(steps);
+    mock_serial line(fmt, &peer);
+    master m(cfg);
+    CHECK_FALSE(write(line, m, 34, code(11), v95_2));
+    CHECK(m.reply().kind == frame_kind::ack);
+    CHECK(read(line, m, 1, code(46)).error() == device_errc::code_does_not_exist);
+    CHECK(m.reply().kind == frame_kind::eot);
+    CHECK(m.stats().stale_bytes == 0);
+    CHECK(peer.mismatches() == 0);
 }
 
 TEST_CASE("a reply split into chunks with gaps is put together", "[lecom][master]") {

@@ -181,3 +181,29 @@ TEST_CASE("values the factories cannot make are not encoded", "[lecom][value]") 
     d.digits = 5;
     CHECK(encode(write_request(1, code(46), d), out).error() == errc::invalid_argument);
 }
+
+TEST_CASE("encode_value writes nothing for a value the factories cannot make", "[lecom][value]") {
+    std::array<std::uint8_t, max_value_length> out{};
+    CHECK(encode_value(*string(""), out.data()) == 1); // "S": the shortest texts are 1 long
+    CHECK(encode_value(*octets({}), out.data()) == 1);
+    CHECK(encode_value(decimal_fixed(0), out.data()) == 1);
+
+    value d = decimal_fixed(1);
+    d.digits = 5;
+    value h = *hex(0xAB, 2);
+    h.digits = 3;
+    value wide = *hex(0xAB, 2);
+    wide.hex = 0x1AB; // three digits' worth in two
+    value s = *string("OK");
+    s.bytes[1] = 0x03; // ETX inside a text would cut the telegram
+    value long_s = *string("12345678901234567890");
+    long_s.size = value::max_string + 1;
+    value o = *octets({});
+    o.size = value::max_octets + 1;
+    value none;
+    none.format = static_cast<value_format>(4);
+    for (const value& v : {d, h, wide, s, long_s, o, none}) {
+        out.fill(0);
+        CHECK(encode_value(v, out.data()) == 0);
+    }
+}

@@ -70,34 +70,43 @@ constexpr std::size_t encode_code(const code_address& a, std::uint8_t* out) noex
         return standard_code_length;
     }
     out[0] = extended_mark;
-    for (int i = 0; i < 4; ++i) out[1 + i] = detail::hex_digit((a.code >> (12 - 4 * i)) & 0xF);
-    out[5] = detail::hex_digit(a.subcode >> 4);
-    out[6] = detail::hex_digit(a.subcode & 0xF);
+    const std::uint32_t v = std::uint32_t{a.code} << 8 | a.subcode; // CCCCSS
+    for (int i = 0; i < 6; ++i) out[1 + i] = detail::hex_digit((v >> (20 - 4 * i)) & 0xF);
     return extended_code_length;
 }
+
+namespace detail {
+// Reads the code field at the start of `in` into `a`; false if there is none.
+constexpr bool read_code(std::span<const std::uint8_t> in, code_address& a) noexcept {
+    if (!in.empty() && in[0] == extended_mark) {
+        if (in.size() < extended_code_length) return false;
+        unsigned v = 0;
+        for (std::size_t i = 1; i < extended_code_length; ++i) {
+            const int d = hex_value(in[i]);
+            if (d < 0) return false;
+            v = v << 4 | static_cast<unsigned>(d);
+        }
+        a = {static_cast<std::uint16_t>(v >> 8), static_cast<std::uint8_t>(v & 0xFF), true};
+        return true;
+    }
+    if (in.size() < standard_code_length) return false;
+    // C1 '0'…'N' (tens of code % 790: 0…78), C2 '0'…0x7F (units + 10 × block).
+    if (in[0] < '0' || in[0] > '0' + 78 || in[1] < '0' || in[1] > 0x7F) return false;
+    const unsigned t = in[0] - '0';
+    const unsigned u = in[1] - '0';
+    const unsigned c = (u / 10) * 790 + t * 10 + u % 10;
+    if (c > max_standard_code) return false;
+    a = {static_cast<std::uint16_t>(c), 0, false};
+    return true;
+}
+} // namespace detail
 
 // Reads a code field at the start of `in`: `!` + 6 hex digits, else two characters.
 // The number of bytes it took is a.length().
 inline result<code_address> parse_code(std::span<const std::uint8_t> in) noexcept {
-    if (!in.empty() && in[0] == extended_mark) {
-        if (in.size() < extended_code_length) return errc::malformed;
-        unsigned v = 0;
-        for (std::size_t i = 1; i < extended_code_length; ++i) {
-            const int d = detail::hex_value(in[i]);
-            if (d < 0) return errc::malformed;
-            v = v << 4 | static_cast<unsigned>(d);
-        }
-        return code_address{static_cast<std::uint16_t>(v >> 8), static_cast<std::uint8_t>(v & 0xFF),
-                            true};
-    }
-    if (in.size() < standard_code_length) return errc::malformed;
-    // C1 '0'…'N' (tens of code % 790: 0…78), C2 '0'…0x7F (units + 10 × block).
-    if (in[0] < '0' || in[0] > '0' + 78 || in[1] < '0' || in[1] > 0x7F) return errc::malformed;
-    const unsigned t = in[0] - '0';
-    const unsigned u = in[1] - '0';
-    const unsigned c = (u / 10) * 790 + t * 10 + u % 10;
-    if (c > max_standard_code) return errc::malformed;
-    return code_address{static_cast<std::uint16_t>(c), 0, false};
+    code_address a;
+    if (!detail::read_code(in, a)) return errc::malformed;
+    return a;
 }
 
 } // namespace ferrule::lecom

@@ -12,7 +12,8 @@
 // including ETX; exactly one byte follows ETX, whatever its value (S1 p.8-20, lecom.md §1.6).
 //
 // frame_decoder splits a byte stream into telegrams (framing only); parse_request() and
-// parse_reply() read one telegram and check its BCC.
+// parse_reply() read one telegram and check its BCC. encode() writes any telegram,
+// encode_request() a request straight into a master's buffer.
 #pragma once
 
 #include <array>
@@ -66,19 +67,50 @@ constexpr std::size_t put_address(std::uint8_t address, std::uint8_t* out) noexc
     return 3;
 }
 
-// STX code text ETX BCC from `out[0]`; the BCC covers code … ETX.
+// STX code text ETX BCC from `out[0]`; the BCC covers code … ETX. 0 when `*v` cannot be
+// encoded.
 constexpr std::size_t put_text(const code_address& c, const value* v, bool fault,
                                std::uint8_t* out) noexcept {
     std::uint8_t* p = out;
     *p++ = stx;
     p += encode_code(c, p);
     if (fault) *p++ = fault_mark;
-    if (v) p += encode_value(*v, p);
+    if (v) {
+        const std::size_t n = encode_value(*v, p);
+        if (n == 0) return 0;
+        p += n;
+    }
     *p++ = etx;
     *p = xor_bcc({out + 1, p});
     return static_cast<std::size_t>(p + 1 - out);
 }
 } // namespace detail
+
+// Can a RECEIVE (`v` null) or a SEND of `*v` go to `address` with code `c`? What encode()
+// refuses of a request is refused here: an address beyond 99, a RECEIVE to a group address,
+// a code that cannot be addressed, a value the factories of value.hpp would not have made.
+constexpr bool is_valid_request(std::uint8_t address, const code_address& c,
+                                const value* v) noexcept {
+    return is_valid(c) &&
+           (v ? is_valid_address(address) && detail::is_encodable(*v) : is_unit_address(address));
+}
+
+// Writes the RECEIVE (`v` null) or SEND of `*v` to `out` (max_request_length bytes) and
+// returns its length; 0 when !is_valid_request(address, c, v), and `out` may then hold the
+// start of a telegram.
+constexpr std::size_t encode_request(std::uint8_t address, const code_address& c, const value* v,
+                                     std::uint8_t* out) noexcept {
+    // The value is checked as it is written.
+    if (!is_valid(c) || !(v ? is_valid_address(address) : is_unit_address(address))) return 0;
+    std::size_t n = detail::put_address(address, out);
+    if (v) {
+        const std::size_t text = detail::put_text(c, v, false, out + n);
+        return text == 0 ? 0 : n + text;
+    }
+    n += encode_code(c, out + n);
+    out[n] = enq;
+    return n + 1;
+}
 
 // Writes a telegram (request or reply) to `out`. Checks what the protocol cannot express:
 // an address beyond 99, a standard code beyond 6229 or with a subcode, a RECEIVE to a group
@@ -87,33 +119,29 @@ constexpr std::size_t put_text(const code_address& c, const value* v, bool fault
 inline result<std::size_t> encode(const frame& f, std::span<std::uint8_t> out) noexcept {
     std::array<std::uint8_t, max_frame_length> buf{};
     std::uint8_t* p = buf.data();
-    const bool has_code =
-        f.kind != frame_kind::ack && f.kind != frame_kind::nak && f.kind != frame_kind::eot;
-    if (has_code && !is_valid(f.code)) return errc::invalid_argument;
-    const bool has_value = f.kind == frame_kind::send || f.kind == frame_kind::data;
-    if (has_value && !detail::is_encodable(f.value)) return errc::invalid_argument;
-    if (is_request(f.kind) && !is_valid_address(f.address)) return errc::invalid_argument;
-    switch (f.kind) {
-    case frame_kind::receive:
-        if (is_group_address(f.address)) return errc::invalid_argument;
-        p += detail::put_address(f.address, p);
-        p += encode_code(f.code, p);
-        *p++ = enq;
-        break;
-    case frame_kind::send:
-        p += detail::put_address(f.address, p);
-        p += detail::put_text(f.code, &f.value, false, p);
-        break;
-    case frame_kind::data: p += detail::put_text(f.code, &f.value, false, p); break;
-    case frame_kind::fault: p += detail::put_text(f.code, nullptr, true, p); break;
-    case frame_kind::no_code:
-        *p++ = stx;
-        p += encode_code(f.code, p);
-        *p++ = eot;
-        break;
-    case frame_kind::ack: *p++ = ack; break;
-    case frame_kind::nak: *p++ = nak; break;
-    case frame_kind::eot: *p++ = eot; break;
+    if (is_request(f.kind)) {
+        const std::size_t n =
+            encode_request(f.address, f.code, f.kind == frame_kind::send ? &f.value : nullptr, p);
+        if (n == 0) return errc::invalid_argument;
+        p += n;
+    } else {
+        const bool has_code =
+            f.kind != frame_kind::ack && f.kind != frame_kind::nak && f.kind != frame_kind::eot;
+        if (has_code && !is_valid(f.code)) return errc::invalid_argument;
+        if (f.kind == frame_kind::data && !detail::is_encodable(f.value))
+            return errc::invalid_argument;
+        switch (f.kind) {
+        case frame_kind::data: p += detail::put_text(f.code, &f.value, false, p); break;
+        case frame_kind::fault: p += detail::put_text(f.code, nullptr, true, p); break;
+        case frame_kind::no_code:
+            *p++ = stx;
+            p += encode_code(f.code, p);
+            *p++ = eot;
+            break;
+        case frame_kind::ack: *p++ = ack; break;
+        case frame_kind::nak: *p++ = nak; break;
+        default: *p++ = eot; break; // bare EOT (the requests are above)
+        }
     }
     const auto n = static_cast<std::size_t>(p - buf.data());
     if (out.size() < n) return errc::buffer_too_small;
@@ -129,70 +157,72 @@ inline frame write_request(std::uint8_t address, const code_address& c, const va
 }
 
 namespace detail {
-// code [value] from a text part, `code … ` up to (not including) ETX.
-inline result<frame> parse_text(frame_kind kind, std::span<const std::uint8_t> text) noexcept {
-    const auto c = parse_code(text);
-    if (!c) return c.error();
-    frame f;
-    f.kind = kind;
-    f.code = *c;
-    const auto rest = text.subspan(c->length());
-    if (kind == frame_kind::data && rest.size() == 1 && rest[0] == fault_mark) {
-        f.kind = frame_kind::fault;
-        return f;
-    }
-    const auto v = parse_value(rest);
-    if (!v) return v.error();
-    f.value = *v;
-    return f;
-}
-
-// STX text ETX BCC at the start of `in` (exactly); checks the BCC.
-inline result<frame> parse_block(frame_kind kind, std::span<const std::uint8_t> in) noexcept {
+// STX code text ETX BCC, exactly, into `f`: the code, and `?` (kind fault) or the value
+// (kind left as it is). Checks the BCC; errc{} when it is such a block.
+constexpr errc read_block(std::span<const std::uint8_t> in, frame& f) noexcept {
     const std::size_t n = in.size();
     if (n < 4 || in[0] != stx || in[n - 2] != etx) return errc::malformed;
     // The text between STX and ETX is 7-bit and printable (the BCC after ETX is not).
     for (std::size_t i = 1; i + 2 < n; ++i)
         if (in[i] < 0x20 || in[i] > 0x7F) return errc::malformed;
     if (xor_bcc(in.subspan(1, n - 2)) != in[n - 1]) return errc::bad_checksum;
-    return parse_text(kind, in.subspan(1, n - 3));
+    const auto text = in.subspan(1, n - 3);
+    if (!read_code(text, f.code)) return errc::malformed;
+    const auto rest = text.subspan(f.code.length());
+    if (rest.size() == 1 && rest[0] == fault_mark) {
+        f.kind = frame_kind::fault;
+        return {};
+    }
+    return read_value(rest, f.value) ? errc{} : errc::malformed;
+}
+
+// A reply telegram into `f`, a default frame; errc{} when it is one, else what parse_reply()
+// gives.
+constexpr errc read_reply(std::span<const std::uint8_t> in, frame& f) noexcept {
+    const std::size_t n = in.size();
+    if (n == 1) {
+        switch (in[0]) {
+        case ack: f.kind = frame_kind::ack; return {};
+        case nak: f.kind = frame_kind::nak; return {};
+        case eot: f.kind = frame_kind::eot; return {};
+        default: return errc::malformed;
+        }
+    }
+    // STX code EOT; a data reply may end in a BCC of 04 too, but has ETX before it.
+    if (n > 2 && in[0] == stx && in[n - 1] == eot && in[n - 2] != etx) {
+        f.kind = frame_kind::no_code;
+        return read_code(in.subspan(1, n - 2), f.code) && f.code.length() == n - 2
+                   ? errc{}
+                   : errc::malformed;
+    }
+    f.kind = frame_kind::data;
+    return read_block(in, f);
 }
 } // namespace detail
 
 // A reply telegram (as frame_decoder yields it): data, fault, no_code, ack, nak or eot.
 inline result<frame> parse_reply(std::span<const std::uint8_t> in) noexcept {
-    if (in.size() == 1) {
-        switch (in[0]) {
-        case ack: return frame{frame_kind::ack};
-        case nak: return frame{frame_kind::nak};
-        case eot: return frame{frame_kind::eot};
-        default: return errc::malformed;
-        }
-    }
-    // STX code EOT; a data reply may end in a BCC of 04 too, but has ETX before it.
-    if (in.size() > 2 && in[0] == stx && in.back() == eot && in[in.size() - 2] != etx) {
-        const auto c = parse_code(in.subspan(1, in.size() - 2));
-        if (!c || c->length() != in.size() - 2) return errc::malformed;
-        return frame{frame_kind::no_code, 0, *c, {}};
-    }
-    return detail::parse_block(frame_kind::data, in);
+    frame f;
+    if (const errc e = detail::read_reply(in, f); e != errc{}) return e;
+    return f;
 }
 
 // A request telegram: RECEIVE or SEND.
 inline result<frame> parse_request(std::span<const std::uint8_t> in) noexcept {
     if (in.size() < 6 || in[0] != eot || in[1] < '0' || in[1] > '9' || in[2] < '0' || in[2] > '9')
         return errc::malformed;
-    const auto address = static_cast<std::uint8_t>((in[1] - '0') * 10 + (in[2] - '0'));
-    result<frame> f = errc::malformed;
+    frame f;
+    f.address = static_cast<std::uint8_t>((in[1] - '0') * 10 + (in[2] - '0'));
     if (in[3] == stx) {
-        f = detail::parse_block(frame_kind::send, in.subspan(3));
-        if (f && f->kind != frame_kind::send) return errc::malformed; // `?` is no value
-    } else if (in.back() == enq) {
-        const auto c = parse_code(in.subspan(3, in.size() - 4));
-        if (!c || c->length() != in.size() - 4) return errc::malformed;
-        f = frame{frame_kind::receive, 0, *c, {}};
+        f.kind = frame_kind::send;
+        if (const errc e = detail::read_block(in.subspan(3), f); e != errc{}) return e;
+        if (f.kind != frame_kind::send) return errc::malformed; // `?` is no value
+        return f;
     }
-    if (f) f->address = address;
+    f.kind = frame_kind::receive;
+    if (in.back() != enq || !detail::read_code(in.subspan(3, in.size() - 4), f.code) ||
+        f.code.length() != in.size() - 4)
+        return errc::malformed;
     return f;
 }
 

@@ -8,9 +8,10 @@
 //   * the reply deadline is the end of the request on the wire + response_timeout; a reply
 //     that has begun by then may finish until the deadline + the wire time of
 //     max_reply_length, so a reply that is arriving is never cut
-//   * the reply is the first complete telegram after the request. Bytes before it that form
-//     no telegram are skipped; if no telegram follows, the attempt ends as malformed at the
-//     deadline. Bytes behind the reply, and bytes while no reply is awaited, are stale
+//   * the reply is the first complete telegram after the request, framed as frame_decoder
+//     frames replies (accept::replies). Bytes before it that form no telegram are skipped; if no
+//     telegram follows, the attempt ends as malformed at the deadline. Bytes behind the reply, and
+//     bytes while no reply is awaited, are stale
 //   * how an attempt ends (lecom.md §1.4, §1.5, §2):
 //       data reply echoing the code asked ............ read done
 //       ACK to SEND .................................. write done
@@ -40,6 +41,7 @@
 // "1500" ETX BCC, 9 characters = 10.3125 ms; with t_d = 20 ms one read takes 37.1875 ms.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -83,204 +85,244 @@ struct master_stats {
 
 class master {
 public:
-    explicit master(const master_config& cfg = {}) noexcept : cfg_(cfg) {}
+    explicit master(const master_config& cfg = {}) noexcept
+        : cfg_(cfg), reply_allowance_(cfg.format.chars_time(max_reply_length)) {}
 
     // RECEIVE: read code `c` of drive `address` (01…99, not x0: a group never answers).
     std::error_code start_read(std::uint8_t address, code_address c) noexcept {
-        if (busy()) return errc::busy;
-        if (!is_unit_address(address)) return errc::invalid_argument;
-        return begin(read_request(address, c));
+        return begin(address, c, nullptr);
     }
 
     // SEND: write `v` to code `c` of drive `address`; 00 and x0 reach a group (no reply).
     std::error_code start_write(std::uint8_t address, code_address c, const value& v) noexcept {
-        if (busy()) return errc::busy;
-        return begin(write_request(address, c, v));
+        return begin(address, c, &v);
     }
 
     session_action next(time_point now) noexcept {
-        switch (state_) {
-        case state::idle: return session_action::idle();
-        case state::done: return session_action::done();
-        case state::pending_send:
-            if (now < send_after_) return session_action::wait_until(send_after_);
-            return send(now);
-        case state::awaiting: {
-            const time_point deadline = deadline_now();
-            if (now < deadline) return session_action::wait_until(deadline);
-            expire(deadline);
-            return next(now);
+        while (busy()) {
+            const bool sending = d_.state == state::pending_send;
+            // Awaiting a reply: a reply that has begun may finish.
+            const time_point until = sending             ? d_.send_after
+                                     : d_.rx == rx::idle ? d_.deadline
+                                                         : d_.deadline + reply_allowance_;
+            if (now < until) return session_action::wait_until(until);
+            if (sending) return send(now);
+            expire(until);
         }
-        }
-        return session_action::idle();
+        return d_.state == state::done ? session_action::done() : session_action::idle();
     }
 
     void on_receive(std::span<const std::uint8_t> in, time_point now) noexcept {
-        if (!in.empty()) hold(now, cfg_.turnaround); // the line is not quiet
-        while (!in.empty()) {
-            if (state_ != state::awaiting || broadcast_) {
-                stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
+        if (!in.empty()) hold(now + cfg_.turnaround); // the line is not quiet
+        for (std::size_t i = 0; i < in.size(); ++i) {
+            if (d_.state != state::awaiting || d_.broadcast) {
+                d_.stats.stale_bytes += static_cast<std::uint32_t>(in.size() - i);
                 return;
             }
-            heard_ = true;
-            const auto step = decoder_.feed(in);
-            in = in.subspan(step.consumed);
-            if (step.what == frame_decoder::status::frame) evaluate(decoder_.frame());
+            d_.heard = true;
+            if (take(in[i])) evaluate({d_.rx_buf.data(), d_.rx_size});
         }
     }
 
     void on_transport_error(std::error_code ec) noexcept {
         if (!busy()) return;
-        ++stats_.failed;
+        ++d_.stats.failed;
         finish(ec);
     }
 
     // Outcome of the finished transaction: empty on success; errc::no_response_expected for a
     // broadcast; otherwise the cause of the last failed attempt, a ferrule::errc or a
     // lecom::device_errc.
-    std::error_code error() const noexcept { return error_; }
+    std::error_code error() const noexcept { return d_.error; }
     // The last reply telegram parsed: for a successful read the data reply (value in
     // reply().value), for a write the ACK.
-    const frame& reply() const noexcept { return reply_; }
-    const frame& request() const noexcept { return request_; }
+    const frame& reply() const noexcept { return d_.reply; }
+    const frame& request() const noexcept { return d_.request; }
     // The request as sent on the wire.
-    std::span<const std::uint8_t> request_bytes() const noexcept { return {tx_.data(), tx_size_}; }
+    std::span<const std::uint8_t> request_bytes() const noexcept {
+        return {d_.tx.data(), d_.tx_size};
+    }
     // Requests sent for the current / finished transaction.
-    unsigned attempts() const noexcept { return attempts_; }
+    unsigned attempts() const noexcept { return d_.attempts; }
     bool busy() const noexcept {
-        return state_ == state::pending_send || state_ == state::awaiting;
+        return d_.state == state::pending_send || d_.state == state::awaiting;
     }
     // Done -> idle once the result has been read (a new start does this too).
     void clear() noexcept {
-        if (state_ == state::done) state_ = state::idle;
+        if (d_.state == state::done) d_.state = state::idle;
     }
 
-    const master_stats& stats() const noexcept { return stats_; }
+    const master_stats& stats() const noexcept { return d_.stats; }
     const master_config& config() const noexcept { return cfg_; }
 
 private:
     enum class state : std::uint8_t { idle, pending_send, awaiting, done };
+    // Where the reply framing is: between telegrams, after STX, after ETX.
+    enum class rx : std::uint8_t { idle, text, bcc };
 
-    std::error_code begin(const frame& request) noexcept {
-        const auto n = encode(request, tx_);
-        if (!n) return errc::invalid_argument;
-        tx_size_ = *n;
-        request_ = request;
-        broadcast_ = request.kind == frame_kind::send && is_group_address(request.address);
-        attempts_ = 0;
-        error_ = {};
-        reply_ = {};
-        ++stats_.transactions;
-        state_ = state::pending_send;
+    // A RECEIVE when `v` is null, else a SEND of *v.
+    std::error_code begin(std::uint8_t address, const code_address& c, const value* v) noexcept {
+        if (busy()) return errc::busy;
+        // request_bytes() keeps the last request if this one is refused.
+        std::array<std::uint8_t, max_request_length> tx;
+        const std::size_t n = encode_request(address, c, v, tx.data());
+        if (n == 0) return errc::invalid_argument;
+        std::copy_n(tx.begin(), n, d_.tx.begin());
+        d_.tx_size = n;
+        d_.tx_time = cfg_.format.chars_time(n);
+        d_.request.kind = v ? frame_kind::send : frame_kind::receive;
+        d_.request.address = address;
+        d_.request.code = c;
+        if (v)
+            d_.request.value = *v;
+        else
+            d_.request.value = {};
+        d_.broadcast = v && is_group_address(address);
+        d_.attempts = 0;
+        d_.error = {};
+        d_.reply = {};
+        ++d_.stats.transactions;
+        d_.state = state::pending_send;
         return {};
     }
 
     session_action send(time_point now) noexcept {
-        if (++attempts_ > 1) ++stats_.resends;
-        tx_end_ = now + cfg_.format.chars_time(tx_size_);
-        if (broadcast_) hold(tx_end_, cfg_.broadcast_spacing); // the drives are busy
-        decoder_.reset();
-        heard_ = false;
-        state_ = state::awaiting;
-        return session_action::send({tx_.data(), tx_size_}, cfg_.discard_stale_input);
-    }
-
-    time_point deadline_now() const noexcept {
-        if (broadcast_) return tx_end_ + cfg_.broadcast_spacing;
-        const time_point d = tx_end_ + cfg_.response_timeout;
-        return decoder_.in_frame() ? d + cfg_.format.chars_time(max_reply_length) : d;
+        if (++d_.attempts > 1) ++d_.stats.resends;
+        const time_point end = now + d_.tx_time;
+        d_.deadline = end + (d_.broadcast ? cfg_.broadcast_spacing : cfg_.response_timeout);
+        if (d_.broadcast) hold(d_.deadline); // the drives are busy
+        d_.rx = rx::idle;
+        d_.heard = false;
+        d_.state = state::awaiting;
+        return session_action::send({d_.tx.data(), d_.tx_size}, cfg_.discard_stale_input);
     }
 
     void expire(time_point deadline) noexcept {
-        if (broadcast_) {
+        if (d_.broadcast) {
             finish(errc::no_response_expected);
             return;
         }
-        hold(deadline, cfg_.turnaround);
-        fail(heard_ ? errc::malformed : errc::timeout, true);
+        hold(deadline + cfg_.turnaround);
+        fail(d_.heard ? errc::malformed : errc::timeout);
+    }
+
+    // Frames the reply byte by byte as frame_decoder does with accept::replies; true when
+    // rx_buf holds a telegram.
+    bool take(std::uint8_t b) noexcept {
+        auto& buf = d_.rx_buf;
+        std::size_t& n = d_.rx_size;
+        if (d_.rx == rx::bcc) { // exactly one byte, whatever its value
+            buf[n++] = b;
+            d_.rx = rx::idle;
+            return true;
+        }
+        if (d_.rx == rx::text) {
+            // STX code EOT: the code does not exist. (With only STX in, neither length fits.)
+            const std::size_t no_code_length =
+                buf[1] == extended_mark ? 2 + extended_code_length : 2 + standard_code_length;
+            const bool end = b == eot && n + 1 == no_code_length;
+            // Text is 7-bit without control characters; room is left for ETX and the BCC.
+            if (b == etx || end || (b >= 0x20 && b <= 0x7F && n + 2 < buf.size())) {
+                buf[n++] = b;
+                if (b == etx) d_.rx = rx::bcc;
+                if (end) d_.rx = rx::idle;
+                return end;
+            }
+            // Cut short: `b` may start the next telegram.
+        }
+        buf[0] = b;
+        n = 1;
+        d_.rx = b == stx ? rx::text : rx::idle;
+        return b == ack || b == nak || b == eot;
     }
 
     // The reply's bytes have set the turnaround already (on_receive).
     void evaluate(std::span<const std::uint8_t> telegram) noexcept {
-        const auto parsed = parse_reply(telegram);
-        if (!parsed) {
-            fail(parsed.error(), true);
+        frame f;
+        if (const errc e = detail::read_reply(telegram, f); e != errc{}) {
+            fail(e);
             return;
         }
-        reply_ = *parsed;
-        const frame_kind k = reply_.kind;
-        if (request_.kind == frame_kind::send) {
-            if (k == frame_kind::ack)
-                succeed();
-            else if (k == frame_kind::nak)
-                fail(device_errc::write_refused, true);
-            else
-                fail(errc::malformed, true);
-            return;
+        d_.reply = f;
+        const frame_kind k = f.kind;
+        device_errc answer{}; // the drive's own answer, if the reply is one
+        if (d_.request.kind == frame_kind::send) {
+            if (k == frame_kind::ack) return succeed();
+            if (k == frame_kind::nak) answer = device_errc::write_refused;
+        } else {
+            const bool echoes =
+                k == frame_kind::data || k == frame_kind::fault || k == frame_kind::no_code;
+            if (echoes && f.code != d_.request.code) return fail(errc::unexpected_type);
+            if (k == frame_kind::data) return succeed();
+            if (k == frame_kind::fault || k == frame_kind::nak)
+                answer = device_errc::checksum_fault;
+            if (k == frame_kind::no_code || k == frame_kind::eot)
+                answer = device_errc::code_does_not_exist;
         }
-        const bool echoes =
-            k == frame_kind::data || k == frame_kind::fault || k == frame_kind::no_code;
-        if (echoes && reply_.code != request_.code) {
-            fail(errc::unexpected_type, true);
-            return;
-        }
-        switch (k) {
-        case frame_kind::data: succeed(); return;
-        case frame_kind::fault:
-        case frame_kind::nak: fail(device_errc::checksum_fault, true); return;
-        case frame_kind::no_code:
-        case frame_kind::eot: fail(device_errc::code_does_not_exist, false); return;
-        default: fail(errc::malformed, true); return;
-        }
+        if (answer == device_errc{}) return fail(errc::malformed);
+        fail(answer, d_.stats.device_errors, answer != device_errc::code_does_not_exist);
     }
 
     void succeed() noexcept {
-        ++stats_.succeeded;
+        ++d_.stats.succeeded;
         finish({});
     }
 
-    void fail(std::error_code ec, bool may_retry) noexcept {
-        if (ec == errc::timeout)
-            ++stats_.timeouts;
-        else if (ec == errc::bad_checksum)
-            ++stats_.bad_checksums;
-        else if (ec.category() == device_category())
-            ++stats_.device_errors;
-        else
-            ++stats_.malformed;
-        if (may_retry && attempts_ <= cfg_.retries) {
-            error_ = ec; // the cause so far, replaced by the final outcome
-            state_ = state::pending_send;
+    // A failed attempt of ours: timeout, bad_checksum, or malformed (the rest).
+    void fail(errc e) noexcept {
+        fail(e,
+             e == errc::timeout        ? d_.stats.timeouts
+             : e == errc::bad_checksum ? d_.stats.bad_checksums
+                                       : d_.stats.malformed,
+             true);
+    }
+
+    // A failed attempt, counted in `counter`.
+    void fail(std::error_code ec, std::uint32_t& counter, bool may_retry) noexcept {
+        ++counter;
+        if (may_retry && d_.attempts <= cfg_.retries) {
+            d_.error = ec; // the cause so far, replaced by the final outcome
+            d_.state = state::pending_send;
             return;
         }
-        ++stats_.failed;
+        ++d_.stats.failed;
         finish(ec);
     }
 
     void finish(std::error_code ec) noexcept {
-        error_ = ec;
-        state_ = state::done;
+        d_.error = ec;
+        d_.state = state::done;
     }
 
-    // No request before t + quiet.
-    void hold(time_point t, duration quiet) noexcept {
-        if (t + quiet > send_after_) send_after_ = t + quiet;
+    // No request before t.
+    void hold(time_point t) noexcept {
+        if (t > d_.send_after) d_.send_after = t;
     }
+
+    // All of it starts zero but for two frame kinds, the hold and the error code, so that one
+    // memset and a few stores set it up.
+    struct data {
+        master_stats stats{};
+        master::state state = state::idle;
+        master::rx rx = rx::idle;
+        bool broadcast = false;
+        bool heard = false; // bytes received since the request was sent
+        unsigned attempts = 0;
+        frame request{};
+        frame reply{};
+        std::array<std::uint8_t, max_request_length> tx{};
+        std::size_t tx_size = 0;
+        duration tx_time{}; // wire time of the request
+        std::array<std::uint8_t, max_frame_length> rx_buf{};
+        std::size_t rx_size = 0;
+        time_point send_after = time_point::min();
+        time_point deadline{}; // end of the request + response_timeout (broadcast_spacing)
+        std::error_code error{};
+    };
 
     master_config cfg_;
-    master_stats stats_{};
-    state state_ = state::idle;
-    frame request_{};
-    frame reply_{};
-    std::array<std::uint8_t, max_request_length> tx_{};
-    std::size_t tx_size_ = 0;
-    frame_decoder decoder_{frame_decoder::accept::replies};
-    time_point send_after_ = time_point::min();
-    time_point tx_end_{};
-    std::error_code error_{};
-    unsigned attempts_ = 0;
-    bool broadcast_ = false;
-    bool heard_ = false; // bytes received since the request was sent
+    duration reply_allowance_; // wire time of max_reply_length
+    data d_{};
 };
 
 static_assert(master_session<master>);

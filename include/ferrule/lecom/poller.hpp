@@ -103,51 +103,46 @@ class poller {
     static_assert(MaxItems > 0 && MaxWrites > 0 && MaxDrives > 0);
 
 public:
-    explicit poller(const poller_config& cfg = {}) noexcept : cfg_(cfg), m_(cfg.master) {}
+    explicit poller(const poller_config& cfg = {}) noexcept
+        : m_(cfg.master), offline_after_(cfg.offline_after),
+          offline_interval_(cfg.offline_interval) {}
 
     // Adds an item, due at once; returns its index. invalid_argument for a group address or
     // a code that cannot be addressed; buffer_too_small when MaxItems items or MaxDrives
     // drives are taken.
     result<std::size_t> add(const poll_item& item) noexcept {
-        if (!is_unit_address(item.address) || !is_valid(item.code) ||
-            item.interval < duration::zero())
+        if (!is_valid_request(item.address, item.code, nullptr) || item.interval < duration::zero())
             return errc::invalid_argument;
-        if (count_ == MaxItems) return errc::buffer_too_small;
+        if (t_.count == MaxItems) return errc::buffer_too_small;
+        // Slots past the counts are as constructed: nothing is ever removed.
         std::size_t d = find_drive(item.address);
-        if (d == drive_count_) {
-            if (drive_count_ == MaxDrives) return errc::buffer_too_small;
-            drives_[d] = drive_state{};
-            drives_[d].address = item.address;
-            probe_at_[d] = time_point::min();
-            ++drive_count_;
+        if (d == t_.drive_count) {
+            if (t_.drive_count == MaxDrives) return errc::buffer_too_small;
+            t_.drives[d].address = item.address; // probe_at[d] is set when it goes offline
+            ++t_.drive_count;
         }
-        items_[count_] = item;
-        item_drive_[count_] = d;
-        due_[count_] = time_point::min();
-        states_[count_] = item_state{};
-        return count_++;
+        t_.items[t_.count] = item;
+        t_.item_drive[t_.count] = d;
+        t_.due[t_.count] = time_point::min();
+        return t_.count++;
     }
 
     // Queues a SEND, sent before the next due poll; FIFO. 00 / x0 reach a group. busy when
     // MaxWrites writes wait or are under way; invalid_argument for what the master could not
     // send.
     std::error_code write(std::uint8_t address, code_address c, const value& v) noexcept {
-        std::array<std::uint8_t, max_request_length> probe{};
-        if (!encode(write_request(address, c, v), probe)) return errc::invalid_argument;
-        if (queued_ == MaxWrites) return errc::busy;
-        writes_[(head_ + queued_) % MaxWrites] = queued_write{address, c, v};
-        ++queued_;
+        if (!is_valid_request(address, c, &v)) return errc::invalid_argument;
+        if (t_.queued == MaxWrites) return errc::busy;
+        t_.writes[(t_.head + t_.queued) % MaxWrites] = queued_write{address, c, v};
+        ++t_.queued;
         return {};
     }
 
     // --- master_session ----------------------------------------------------------------
     session_action next(time_point now) noexcept {
         session_action a = m_.next(now);
-        if (a.what == session_action::kind::done) {
-            harvest(now);
-            a = m_.next(now);
-        }
-        if (a.what == session_action::kind::idle) {
+        if (a.what == session_action::kind::done) harvest(now); // the master is idle again
+        if (a.what == session_action::kind::done || a.what == session_action::kind::idle) {
             const time_point wake = start_job(now);
             if (wake == never) return session_action::idle();
             if (wake > now) return session_action::wait_until(wake);
@@ -161,23 +156,25 @@ public:
     }
     void on_transport_error(std::error_code ec) noexcept { m_.on_transport_error(ec); }
     // Outcome of the last finished transaction.
-    std::error_code error() const noexcept { return last_.error; }
+    std::error_code error() const noexcept { return t_.last.error; }
 
     // --- results -----------------------------------------------------------------------
-    std::span<const poll_item> items() const noexcept { return {items_.data(), count_}; }
-    const item_state& state(std::size_t i) const noexcept { return states_[i]; }
-    std::span<const drive_state> drives() const noexcept { return {drives_.data(), drive_count_}; }
+    std::span<const poll_item> items() const noexcept { return {t_.items.data(), t_.count}; }
+    const item_state& state(std::size_t i) const noexcept { return t_.states[i]; }
+    std::span<const drive_state> drives() const noexcept {
+        return {t_.drives.data(), t_.drive_count};
+    }
     const drive_state* drive(std::uint8_t address) const noexcept {
         const std::size_t d = find_drive(address);
-        return d == drive_count_ ? nullptr : &drives_[d];
+        return d == t_.drive_count ? nullptr : &t_.drives[d];
     }
     // Transactions finished so far; last_event() is the latest.
-    std::uint32_t completed() const noexcept { return completed_; }
-    const poll_event& last_event() const noexcept { return last_; }
+    std::uint32_t completed() const noexcept { return t_.completed; }
+    const poll_event& last_event() const noexcept { return t_.last; }
     // Writes waiting, the one under way included.
-    std::size_t queued_writes() const noexcept { return queued_; }
-    std::uint32_t cycles() const noexcept { return cycles_; }
-    duration last_cycle_time() const noexcept { return cycle_time_; }
+    std::size_t queued_writes() const noexcept { return t_.queued; }
+    std::uint32_t cycles() const noexcept { return t_.cycles; }
+    duration last_cycle_time() const noexcept { return t_.cycle_time; }
     const master& session() const noexcept { return m_; }
 
 private:
@@ -190,79 +187,77 @@ private:
 
     std::size_t find_drive(std::uint8_t address) const noexcept {
         std::size_t d = 0;
-        while (d < drive_count_ && drives_[d].address != address) ++d;
+        while (d < t_.drive_count && t_.drives[d].address != address) ++d;
         return d;
     }
 
     bool offline(std::size_t d) const noexcept {
-        return cfg_.offline_after != 0 && drives_[d].misses >= cfg_.offline_after;
+        return offline_after_ != 0 && t_.drives[d].misses >= offline_after_;
     }
 
     time_point due_time(std::size_t i) const noexcept {
-        const std::size_t d = item_drive_[i];
-        return offline(d) && probe_at_[d] > due_[i] ? probe_at_[d] : due_[i];
+        const std::size_t d = t_.item_drive[i];
+        return offline(d) && t_.probe_at[d] > t_.due[i] ? t_.probe_at[d] : t_.due[i];
     }
 
     // Starts the next transaction and returns `now`, or returns when the next item is due
     // (never: nothing to do).
     time_point start_job(time_point now) noexcept {
-        sent_at_ = now;
-        if (queued_ > 0) { // it leaves the queue when it has been sent
-            const queued_write& w = writes_[head_];
-            running_ = job::write;
+        t_.sent_at = now;
+        if (t_.queued > 0) { // it leaves the queue when it has been sent
+            const queued_write& w = t_.writes[t_.head];
+            t_.running = job::write;
             (void)m_.start_write(w.address, w.code, w.v); // checked by write(); the master is idle
             return now;
         }
-        std::size_t best = count_;
+        std::size_t best = t_.count;
         time_point best_due = never;
-        for (std::size_t i = 0; i < count_; ++i) {
+        for (std::size_t i = 0; i < t_.count; ++i) {
             const time_point t = due_time(i);
             if (t < best_due) {
                 best = i;
                 best_due = t;
             }
         }
-        if (best == count_ || best_due > now) return best_due;
-        running_ = job::read;
-        current_item_ = best;
-        (void)m_.start_read(items_[best].address, items_[best].code); // checked by add()
+        if (best == t_.count || best_due > now) return best_due;
+        t_.running = job::read;
+        t_.current_item = best;
+        (void)m_.start_read(t_.items[best].address, t_.items[best].code); // checked by add()
         return now;
     }
 
     void on_first_send(time_point now) noexcept {
-        sent_at_ = now;
-        if (running_ != job::read || current_item_ != 0) return;
-        if (cycle_started_) {
-            ++cycles_;
-            cycle_time_ = now - cycle_start_;
+        t_.sent_at = now;
+        if (t_.running != job::read || t_.current_item != 0) return;
+        if (t_.cycle_started) {
+            ++t_.cycles;
+            t_.cycle_time = now - t_.cycle_start;
         }
-        cycle_start_ = now;
-        cycle_started_ = true;
+        t_.cycle_start = now;
+        t_.cycle_started = true;
     }
 
+    // The transaction has finished: its event, the item's or the write's bookkeeping.
     void harvest(time_point now) noexcept {
         const std::error_code ec = m_.error();
-        ++completed_;
-        last_.error = ec;
-        std::size_t d = drive_count_;
-        if (running_ == job::write) {
-            const queued_write& w = writes_[head_];
-            last_.what = poll_event::kind::write;
-            last_.item = 0;
-            last_.address = w.address;
-            last_.code = w.code;
-            last_.value = w.v;
-            head_ = (head_ + 1) % MaxWrites;
-            --queued_;
-            d = find_drive(last_.address);
-            if (d < drive_count_) ++drives_[d].writes;
+        const frame& request = m_.request();
+        ++t_.completed;
+        t_.last.error = ec;
+        t_.last.address = request.address;
+        t_.last.code = request.code;
+        std::size_t d = 0;
+        const value* v = &request.value; // a write: the value written
+        if (t_.running == job::write) {
+            t_.last.what = poll_event::kind::write;
+            t_.last.item = 0;
+            t_.head = (t_.head + 1) % MaxWrites;
+            --t_.queued;
+            d = find_drive(request.address);
         } else {
-            const poll_item& it = items_[current_item_];
-            item_state& s = states_[current_item_];
-            last_.what = poll_event::kind::read;
-            last_.item = current_item_;
-            last_.address = it.address;
-            last_.code = it.code;
+            const std::size_t i = t_.current_item;
+            item_state& s = t_.states[i];
+            t_.last.what = poll_event::kind::read;
+            t_.last.item = i;
             ++s.reads;
             s.error = ec;
             s.valid = !ec;
@@ -272,65 +267,75 @@ private:
                 s.last = m_.reply().value;
                 s.updated = now;
             }
-            last_.value = s.last;
-            due_[current_item_] = sent_at_ + it.interval;
-            d = item_drive_[current_item_];
+            v = &s.last;
+            t_.due[i] = t_.sent_at + t_.items[i].interval;
+            d = t_.item_drive[i];
         }
-        if (d < drive_count_) account(d, ec);
-        running_ = job::none;
+        t_.last.value = *v;
+        if (d < t_.drive_count) account(d, ec, t_.running == job::write);
+        t_.running = job::none;
         m_.clear();
     }
 
     // Nothing came back from the drive (lecom.md §1.12: silence, or a telegram broken on
-    // the line); device errors are answers, transport errors are the host's port.
-    static bool is_miss(std::error_code ec) noexcept {
+    // the line): the ferrule::errc values of such failures.
+    static constexpr bool is_miss(int e) noexcept {
         constexpr unsigned misses =
             1u << static_cast<int>(errc::timeout) | 1u << static_cast<int>(errc::bad_checksum) |
             1u << static_cast<int>(errc::malformed) | 1u << static_cast<int>(errc::unexpected_type);
-        return ec.category() == errc_category() && ec.value() > 0 && ec.value() < 32 &&
-               (misses >> ec.value() & 1u) != 0;
+        return static_cast<unsigned>(e) < 32 && (misses >> e & 1u) != 0;
     }
 
-    void account(std::size_t d, std::error_code ec) noexcept {
-        drive_state& s = drives_[d];
+    // Device errors are answers; transport errors are the host's port.
+    void account(std::size_t d, std::error_code ec, bool write) noexcept {
+        drive_state& s = t_.drives[d];
         ++s.transactions;
-        if (ec) ++s.failures;
-        if (ec == errc::timeout) ++s.timeouts;
+        s.writes += write;
         if (!ec || ec.category() == device_category()) {
             s.seen = true;
             s.online = true;
             s.misses = 0;
-        } else if (is_miss(ec)) {
-            ++s.misses;
-            if (offline(d)) {
-                s.online = false;
-                probe_at_[d] = sent_at_ + cfg_.offline_interval;
-            }
+        }
+        if (!ec) return;
+        ++s.failures;
+        if (ec.category() != errc_category()) return;
+        if (ec.value() == static_cast<int>(errc::timeout)) ++s.timeouts;
+        if (!is_miss(ec.value())) return;
+        ++s.misses;
+        if (offline(d)) {
+            s.online = false;
+            t_.probe_at[d] = t_.sent_at + offline_interval_;
         }
     }
 
-    poller_config cfg_;
+    // All but the error codes start zero, so that one memset sets up nearly all of it.
+    struct tables {
+        std::array<poll_item, MaxItems> items{};
+        std::array<item_state, MaxItems> states{};
+        std::array<time_point, MaxItems> due{};
+        std::array<std::size_t, MaxItems> item_drive{};
+        std::size_t count = 0;
+        std::array<drive_state, MaxDrives> drives{};
+        std::array<time_point, MaxDrives> probe_at{};
+        std::size_t drive_count = 0;
+        std::array<queued_write, MaxWrites> writes{};
+        std::size_t head = 0;
+        std::size_t queued = 0;
+        job running = job::none;
+        std::size_t current_item = 0;
+        time_point sent_at{}; // start of the running transaction's first request on the wire
+        poll_event last{};
+        std::uint32_t completed = 0;
+        std::uint32_t cycles = 0;
+        duration cycle_time{};
+        time_point cycle_start{};
+        bool cycle_started = false;
+    };
+
     master m_;
-    std::array<poll_item, MaxItems> items_{};
-    std::array<item_state, MaxItems> states_{};
-    std::array<time_point, MaxItems> due_{};
-    std::array<std::size_t, MaxItems> item_drive_{};
-    std::size_t count_ = 0;
-    std::array<drive_state, MaxDrives> drives_{};
-    std::array<time_point, MaxDrives> probe_at_{};
-    std::size_t drive_count_ = 0;
-    std::array<queued_write, MaxWrites> writes_{};
-    std::size_t head_ = 0;
-    std::size_t queued_ = 0;
-    job running_ = job::none;
-    std::size_t current_item_ = 0;
-    time_point sent_at_{}; // start of the running transaction's first request on the wire
-    poll_event last_{};
-    std::uint32_t completed_ = 0;
-    std::uint32_t cycles_ = 0;
-    duration cycle_time_{};
-    time_point cycle_start_{};
-    bool cycle_started_ = false;
+    unsigned offline_after_;
+    duration offline_interval_;
+    tables t_{};
 };
 
 static_assert(master_session<poller<>>);

@@ -107,69 +107,56 @@ inline result<value> octets(std::span<const std::uint8_t> b) noexcept {
     return out;
 }
 
-namespace detail {
-// Could the factories above have made `v`? encode_value() needs this: a hand-built value
-// with 40 hex digits or 30 octets would not fit max_value_length.
-constexpr bool is_encodable(const value& v) noexcept {
-    switch (v.format) {
-    case value_format::decimal: return v.digits <= value::max_decimals;
-    case value_format::hex:
-        return (v.digits == 2 || v.digits == 4 || v.digits == 8) &&
-               (v.digits == 8 || v.hex >> (4 * v.digits) == 0);
-    case value_format::string:
-        if (v.size > value::max_string) return false;
-        for (std::size_t i = 0; i < v.size; ++i)
-            if (!is_visible(v.bytes[i])) return false;
-        return true;
-    case value_format::octets: return v.size <= value::max_octets;
-    }
-    return false;
-}
-} // namespace detail
-
 // Longest value text: 'O' + two digits per octet.
 inline constexpr std::size_t max_value_length = 1 + 2 * value::max_octets;
 
 // Writes the value text to `out` (max_value_length bytes); returns its length. A decimal
 // gets value::digits decimals, or more where its fraction needs them; other fields are
-// written as the factories above made them.
+// written as the factories above made them. A value they could not have made (a hand-built
+// one with 40 hex digits, 30 octets, a control character in a string…) is not written:
+// the result is 0 and `out` holds no value text.
 constexpr std::size_t encode_value(const value& v, std::uint8_t* out) noexcept {
     std::uint8_t* p = out;
     switch (v.format) {
     case value_format::decimal: {
+        if (v.digits > value::max_decimals) return 0;
         if (v.fixed < 0) *p++ = '-';
-        const std::uint32_t mag = v.fixed < 0 ? 0u - static_cast<std::uint32_t>(v.fixed)
-                                              : static_cast<std::uint32_t>(v.fixed);
-        std::uint32_t whole = mag / value::scale;
-        std::uint8_t tmp[10];
-        int n = 0;
-        do {
-            tmp[n++] = static_cast<std::uint8_t>('0' + whole % 10);
-            whole /= 10;
-        } while (whole != 0);
-        while (n > 0) *p++ = tmp[--n];
-        const std::uint8_t need = needed_decimals(v.fixed);
-        const int decimals = v.digits > need ? v.digits : need;
-        if (decimals > 0) {
-            *p++ = '.';
-            std::uint32_t frac = mag % value::scale;
-            for (int i = 0; i < decimals && i < value::max_decimals; ++i) {
-                frac *= 10;
-                *p++ = static_cast<std::uint8_t>('0' + frac / value::scale);
-                frac %= value::scale;
-            }
+        std::uint32_t mag = v.fixed < 0 ? 0u - static_cast<std::uint32_t>(v.fixed)
+                                        : static_cast<std::uint32_t>(v.fixed);
+        // Drop the zeros of the fraction that neither the value nor v.digits asks for.
+        unsigned decimals = value::max_decimals;
+        while (decimals > v.digits && mag % 10 == 0) {
+            mag /= 10;
+            --decimals;
         }
+        // Digits from the last one, the point after `decimals` of them, one before it.
+        std::uint8_t tmp[12];
+        unsigned n = 0;
+        for (unsigned i = 1; mag != 0 || i <= decimals + 1; ++i) {
+            tmp[n++] = static_cast<std::uint8_t>('0' + mag % 10);
+            mag /= 10;
+            if (i == decimals) tmp[n++] = '.';
+        }
+        while (n > 0) *p++ = tmp[--n];
         break;
     }
     case value_format::hex:
+        if ((v.digits != 2 && v.digits != 4 && v.digits != 8) ||
+            (v.digits < 8 && v.hex >> (4 * v.digits) != 0))
+            return 0;
         *p++ = 'H';
         for (int i = v.digits - 1; i >= 0; --i) *p++ = detail::hex_digit((v.hex >> (4 * i)) & 0xF);
         break;
     case value_format::string:
+        if (v.size > value::max_string) return 0;
         *p++ = 'S';
-        for (std::size_t i = 0; i < v.size; ++i) *p++ = v.bytes[i];
+        for (std::size_t i = 0; i < v.size; ++i) {
+            if (!detail::is_visible(v.bytes[i])) return 0;
+            *p++ = v.bytes[i];
+        }
         break;
     case value_format::octets:
+        if (v.size > value::max_octets) return 0;
         *p++ = 'O';
         for (std::size_t i = 0; i < v.size; ++i) {
             *p++ = detail::hex_digit(v.bytes[i] >> 4);
@@ -177,83 +164,90 @@ constexpr std::size_t encode_value(const value& v, std::uint8_t* out) noexcept {
         }
         break;
     }
-    return static_cast<std::size_t>(p - out);
+    return static_cast<std::size_t>(p - out); // 0 for a format that is none of the four
 }
 
 namespace detail {
-inline result<value> parse_decimal(std::span<const std::uint8_t> in) noexcept {
-    std::size_t i = 0;
+// Could the factories above have made `v`? Only such a value is encoded.
+constexpr bool is_encodable(const value& v) noexcept {
+    std::array<std::uint8_t, max_value_length> scratch; // written, never read
+    return encode_value(v, scratch.data()) != 0;
+}
+
+// VD: [-]d…d[.d…d], at most 6 integer and 4 decimal digits, within FIX32.
+constexpr bool read_decimal(std::span<const std::uint8_t> in, value& v) noexcept {
     const bool negative = !in.empty() && in[0] == '-';
-    i += negative;
-    std::int64_t whole = 0;
-    const std::size_t first = i;
-    while (i < in.size() && in[i] >= '0' && in[i] <= '9') {
-        if (i - first == value::max_integer_digits) return errc::malformed;
-        whole = whole * 10 + (in[i++] - '0');
-    }
-    if (i == first) return errc::malformed;
-    std::int64_t frac = 0;
-    std::uint8_t decimals = 0;
-    if (i < in.size() && in[i] == '.') {
-        ++i;
+    std::uint32_t mag = 0; // the digits, the point left out: at most 214748 9999
+    unsigned counts[2]{};  // digits before and after the point
+    bool point = false;
+    for (std::size_t i = negative; i < in.size(); ++i) {
+        const std::uint8_t c = in[i];
         // "the decimal point must not be transmitted if the value does not have digits
         // after the decimal point" (S1 p.8-19)
-        while (i < in.size() && in[i] >= '0' && in[i] <= '9') {
-            if (decimals == value::max_decimals) return errc::malformed;
-            frac = frac * 10 + (in[i++] - '0');
-            ++decimals;
+        if (c == '.' && !point && counts[0] != 0) {
+            point = true;
+            continue;
         }
-        if (decimals == 0) return errc::malformed;
+        if (c < '0' || c > '9') return false;
+        mag = mag * 10 + (c - '0');
+        if (point ? ++counts[1] > value::max_decimals
+                  : ++counts[0] > value::max_integer_digits || mag > 214748)
+            return false; // beyond ±214748.3648 whatever follows
     }
-    if (i != in.size()) return errc::malformed;
-    for (std::uint8_t d = decimals; d < value::max_decimals; ++d) frac *= 10;
-    std::int64_t fixed = whole * value::scale + frac;
-    if (negative) fixed = -fixed;
-    if (fixed > INT32_MAX || fixed < INT32_MIN) return errc::malformed; // ±214748.364x
-    value v;
-    v.fixed = static_cast<std::int32_t>(fixed);
-    v.digits = decimals;
-    return v;
+    if (counts[0] == 0 || (point && counts[1] == 0)) return false;
+    for (unsigned d = counts[1]; d < value::max_decimals; ++d) mag *= 10;
+    if (mag > 0x7FFF'FFFFu + unsigned{negative}) return false; // ±214748.364x
+    v.fixed = static_cast<std::int32_t>(negative ? 0u - mag : mag);
+    v.digits = static_cast<std::uint8_t>(counts[1]);
+    return true;
+}
+
+// Reads a value text into `v`, a default value; false if it is none.
+constexpr bool read_value(std::span<const std::uint8_t> in, value& v) noexcept {
+    if (in.empty()) return false;
+    const auto body = in.subspan(1);
+    const std::size_t n = body.size();
+    switch (in[0]) {
+    case 'H':
+    case 'O': {
+        // VH: 2, 4 or 8 digits of one number; VO: two digits per octet.
+        const bool octets = in[0] == 'O';
+        if (octets ? n % 2 != 0 || n > 2 * value::max_octets : n != 2 && n != 4 && n != 8)
+            return false;
+        std::uint32_t acc = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+            const int d = hex_value(body[i]);
+            if (d < 0) return false;
+            acc = acc << 4 | static_cast<unsigned>(d);
+            if (octets && i % 2 != 0) v.bytes[v.size++] = static_cast<std::uint8_t>(acc);
+        }
+        if (octets) {
+            v.format = value_format::octets;
+        } else {
+            v.format = value_format::hex;
+            v.hex = acc;
+            v.digits = static_cast<std::uint8_t>(n);
+        }
+        return true;
+    }
+    case 'S':
+        if (n > value::max_string) return false;
+        v.format = value_format::string;
+        for (auto c : body) {
+            if (!is_visible(c)) return false;
+            v.bytes[v.size++] = c;
+        }
+        return true;
+    default: return read_decimal(in, v);
+    }
 }
 } // namespace detail
 
 // Reads a value text (V1…Vn of a telegram, or what a user typed).
 inline result<value> parse_value(std::span<const std::uint8_t> in) noexcept {
-    if (in.empty()) return errc::malformed;
     value v;
-    const auto body = in.subspan(1);
-    switch (in[0]) {
-    case 'H': {
-        if (body.size() != 2 && body.size() != 4 && body.size() != 8) return errc::malformed;
-        v.format = value_format::hex;
-        for (auto c : body) {
-            const int d = detail::hex_value(c);
-            if (d < 0) return errc::malformed;
-            v.hex = v.hex << 4 | static_cast<unsigned>(d);
-        }
-        v.digits = static_cast<std::uint8_t>(body.size());
-        return v;
-    }
-    case 'S':
-        if (body.size() > value::max_string) return errc::malformed;
-        v.format = value_format::string;
-        for (auto c : body) {
-            if (!detail::is_visible(c)) return errc::malformed;
-            v.bytes[v.size++] = c;
-        }
-        return v;
-    case 'O':
-        if (body.size() % 2 != 0 || body.size() > 2 * value::max_octets) return errc::malformed;
-        v.format = value_format::octets;
-        for (std::size_t i = 0; i < body.size(); i += 2) {
-            const int hi = detail::hex_value(body[i]);
-            const int lo = detail::hex_value(body[i + 1]);
-            if (hi < 0 || lo < 0) return errc::malformed;
-            v.bytes[v.size++] = static_cast<std::uint8_t>(hi << 4 | lo);
-        }
-        return v;
-    default: return detail::parse_decimal(in);
-    }
+    if (!detail::read_value(in, v)) return errc::malformed;
+    return v;
 }
 
 inline result<value> parse_value(std::string_view text) noexcept {
