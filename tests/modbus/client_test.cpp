@@ -140,6 +140,30 @@ TEST_CASE("modbus client: a zero gap sends at once on virtual links", "[modbus][
     CHECK(request_starts(line).at(1) == first_end);
 }
 
+TEST_CASE("modbus client: on a link faster than its format the next request waits for no wire time",
+          "[modbus][client][timing]") {
+    // A pty: the response is back long before the request's computed end at 19200 Bd.
+    client_config cfg = rtu_config(ferrule::serial_format{19200, 8, ferrule::parity::none, 1});
+    cfg.inter_frame_gap = ferrule::duration::zero();
+    client c(cfg);
+    request r;
+    r.function = function::read_holding_registers;
+    r.quantity = 1;
+    const time_point t0{};
+    for (int i = 0; i < 2; ++i) {
+        const time_point start = t0 + i * 100us;
+        REQUIRE_FALSE(c.start(1, r));
+        REQUIRE(c.next(start).what == ferrule::session_action::kind::send);
+        const bytes rsp = adu(1, {0x03, 0x02, 0x00, 0x2A});
+        c.on_receive(rsp, start + 60us);
+        REQUIRE(c.next(start + 60us).what == ferrule::session_action::kind::done);
+        REQUIRE_FALSE(c.error());
+        c.clear();
+    }
+    // With the format's wire time respected instead, the second send would have waited
+    // until 8 characters at 19200 Bd (4.17 ms) after the first.
+}
+
 TEST_CASE("modbus client poll of 8 servers: cycle = sum of t3.5 + request + delay + response",
           "[modbus][client][timing]") {
     for (const auto& fmt : {f9600, f115200}) {

@@ -4,7 +4,8 @@
 //   * RTU: before each request the line has been silent for inter_frame_gap (t3.5; 1.75 ms
 //     above 19200 baud), counted from the end of the last byte on the line: our request's
 //     last byte (its wire time computed from the serial format) or the last byte received.
-//     0 sends at once (virtual links). TCP keeps no gap
+//     0 sends at once (virtual links): a response that comes back before the request's
+//     computed wire end (a pty) ends the request's hold too. TCP keeps no gap
 //   * the response deadline is the end of the request + response_timeout; a response that
 //     has begun by then may finish until the deadline + the wire time of 256 bytes, unless
 //     inter_byte_timeout (RTU, 0 = off) ends it sooner: silence inside a frame longer than
@@ -153,6 +154,10 @@ public:
     void on_receive(std::span<const std::uint8_t> in, time_point now) noexcept {
         if (in.empty()) return;
         if (cfg_.rtu) {
+            // An answer before our request's computed wire end: the link is faster than the
+            // serial format says (a pty, a TCP bridge), so the request's hold ends now.
+            if (state_ == state::awaiting && now < tx_end_ && echo_pos_ == tx_size_)
+                send_after_ = now;
             hold(now, cfg_.inter_frame_gap); // the line is busy until now
             if (state_ == state::awaiting && cfg_.inter_byte_timeout > duration::zero() &&
                 rtu_.in_frame() &&
