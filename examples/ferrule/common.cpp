@@ -4,13 +4,14 @@
 
 namespace ferrule::cli {
 
-void add_common_options(CLI::App& app, common_options& o, unsigned default_address) {
+void add_common_options(CLI::App& app, common_options& o, unsigned default_address,
+                        const std::string& address_names) {
     o.address = default_address;
     app.add_option("--port,-p", o.port, "serial port")->capture_default_str();
     app.add_option("--baud,-b", o.baud, "baud rate (default: the manual's)");
     app.add_option("--format,-f", o.format,
                    "character format: 8E1, 7E1, 8N1, ... (default: the manual's)");
-    app.add_option("--address,-a", o.address, "device address")->capture_default_str();
+    app.add_option(address_names, o.address, "device address")->capture_default_str();
     app.add_option("--timeout", o.timeout_ms, "response timeout in ms (default: the manual's)");
     app.add_option("--retries", o.retries, "resends after a failed attempt");
     app.add_flag("--trace", o.trace, "print every frame as hex with direction and time (stderr)");
@@ -67,15 +68,16 @@ std::unique_ptr<port_session> port_session::open(const common_options& o, const 
         return nullptr;
     }
     p->opened_ = host::steady_now();
-    if (o.trace) {
-        const time_point t0 = p->opened_;
-        p->stream_.set_tap([t0](host::direction d, std::span<const std::uint8_t> b, time_point t) {
-            fmt::print(stderr, "{:10.3f} ms {} {}{}\n",
-                       std::chrono::duration<double, std::milli>(t - t0).count(),
-                       d == host::direction::tx ? "->" : "<-", hex(b), ascii_suffix(b));
-        });
-    }
+    if (o.trace) p->stream_.set_tap(trace_tap(p->opened_));
     return p;
+}
+
+host::tap_handler trace_tap(time_point t0) {
+    return [t0](host::direction d, std::span<const std::uint8_t> b, time_point t) {
+        fmt::print(stderr, "{:10.3f} ms {} {}{}\n",
+                   std::chrono::duration<double, std::milli>(t - t0).count(),
+                   d == host::direction::tx ? "->" : "<-", hex(b), ascii_suffix(b));
+    };
 }
 
 void emit(const common_options& o, const nlohmann::json& j, const std::string& text) {

@@ -43,13 +43,18 @@ struct common_options {
     bool rs485 = false;
 };
 
-// Adds the common options to a protocol's subcommand. `default_address` is the protocol's.
-void add_common_options(CLI::App& app, common_options& o, unsigned default_address);
+// Adds the common options to a protocol's subcommand. `default_address` is the protocol's;
+// `address_names` the option's names in its terms (Modbus: the unit).
+void add_common_options(CLI::App& app, common_options& o, unsigned default_address,
+                        const std::string& address_names = "--address,-a");
 
 // The serial format from --format / --baud over the protocol's manual default.
 result<serial_format> resolve_format(const common_options& o, serial_format manual_default);
 
 std::string hex(std::span<const std::uint8_t> bytes);
+
+// The --trace printer: each chunk with its time since `t0`, direction and hex, on stderr.
+host::tap_handler trace_tap(time_point t0);
 
 // One open port with its blocking stream; prints --trace lines on stderr.
 class port_session {

@@ -22,5 +22,7 @@ void print_skipped(const decode_options& o, std::size_t offset, std::span<const 
 
 // Each returns the exit code: 0 when every byte belonged to a good telegram, else 1.
 int decode_lecom(const decode_options& o, std::span<const std::uint8_t> bytes);
+int decode_modbus_rtu(const decode_options& o, std::span<const std::uint8_t> bytes);
+int decode_modbus_tcp(const decode_options& o, std::span<const std::uint8_t> bytes);
 
 } // namespace ferrule::cli

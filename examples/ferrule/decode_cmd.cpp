@@ -241,9 +241,9 @@ int decode_dimetix(const decode_options& o, std::span<const std::uint8_t> bytes)
 void add_decode(CLI::App& app, int& exit_status) {
     auto* sub = app.add_subcommand("decode", "split captured bytes into frames and decode them");
     auto o = std::make_shared<decode_options>();
-    sub->add_option("protocol", o->protocol, "movilink, dimetix or lecom")
+    sub->add_option("protocol", o->protocol, "movilink, dimetix, lecom, modbus-rtu or modbus-tcp")
         ->required()
-        ->check(CLI::IsMember({"movilink", "dimetix", "lecom"}));
+        ->check(CLI::IsMember({"movilink", "dimetix", "lecom", "modbus-rtu", "modbus-tcp"}));
     sub->add_option("bytes", o->hex, "hex bytes, e.g. 02 01 05 00 06 3A 98 01 F4 57");
     sub->add_option("--file", o->file, "binary capture file instead of hex bytes");
     sub->add_flag("--json", o->json, "one JSON object per frame");
@@ -266,6 +266,10 @@ void add_decode(CLI::App& app, int& exit_status) {
             exit_status = decode_dimetix(*o, bytes);
         else if (o->protocol == "lecom")
             exit_status = decode_lecom(*o, bytes);
+        else if (o->protocol == "modbus-rtu")
+            exit_status = decode_modbus_rtu(*o, bytes);
+        else if (o->protocol == "modbus-tcp")
+            exit_status = decode_modbus_tcp(*o, bytes);
         else
             exit_status = decode_movilink(*o, bytes);
     });

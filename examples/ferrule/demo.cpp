@@ -12,10 +12,13 @@
 #include "ferrule/lecom/access.hpp"
 #include "ferrule/lecom/poller.hpp"
 #include "ferrule/lecom/sim_station.hpp"
+#include "ferrule/modbus/access.hpp"
+#include "ferrule/modbus/sim_station.hpp"
 #include "ferrule/movilink/access.hpp"
 #include "ferrule/movilink/process_data.hpp"
 #include "ferrule/movilink/sim_station.hpp"
 #include "lecom_text.hpp"
+#include "modbus_text.hpp"
 #include "poll_loop.hpp"
 
 namespace ferrule::cli {
@@ -24,6 +27,7 @@ namespace {
 namespace ml = ferrule::movilink;
 namespace dx = ferrule::dimetix;
 namespace lc = ferrule::lecom;
+namespace mb = ferrule::modbus;
 using namespace std::chrono_literals;
 
 // A pty_server on its own thread; pause() stops it so the demo can change a device.
@@ -53,9 +57,9 @@ struct demo_options {
 
 int fail(const char* what, std::error_code ec) {
     fmt::print("  {} failed: {}\n", what, ec.message());
-    const bool device = ec.category() == ml::device_category() ||
-                        ec.category() == dx::device_category() ||
-                        ec.category() == lc::device_category();
+    const bool device =
+        ec.category() == ml::device_category() || ec.category() == dx::device_category() ||
+        ec.category() == lc::device_category() || ec.category() == mb::device_category();
     return device ? exit_device_error : exit_transport;
 }
 
@@ -189,6 +193,78 @@ int lecom_part(const demo_options& d) {
     return exit_ok;
 }
 
+// The gateway paper's VFD on Modbus RTU: its status, the paper's start command, the ramp,
+// a stop, an exception and a unit that is not there.
+int modbus_part(const demo_options& d) {
+    namespace reg = mb::sim::vfd_register;
+    mb::server_config cfg;
+    cfg.units = {1};
+    cfg.format = {host::pty_line_baud, 8, parity::even, 1}; // frames end after 1.75 ms
+    mb::sim::station vfd(cfg);
+    host::pty_server<mb::sim::station> line;
+    if (auto ec = line.open()) return fail("openpty", ec);
+    line.add(vfd);
+    background_server<mb::sim::station> server(line);
+
+    fmt::print("\n7. A simulated VFD (Modbus RTU unit 1, 19200 8E1) on {}\n", line.path());
+    common_options o;
+    o.port = line.path();
+    o.trace = d.trace;
+    const auto port = port_session::open(o, mb::default_format);
+    if (!port) return exit_transport;
+    auto& stream = port->stream();
+    mb::client c;
+    std::array<std::uint16_t, 2> live{}; // status word, output frequency
+    const auto read_live = [&] {
+        return mb::read_holding_registers(stream, c, 1, reg::status_word, live);
+    };
+    if (auto ec = read_live()) return fail("read 0xC802", ec);
+    fmt::print("  status word 0xC802 = 0x{:04X}, output frequency 0xC803 = {:.2f} Hz\n", live[0],
+               live[1] / 100.0);
+    const std::array<std::uint16_t, 2> ramps{10, 10}; // 1.0 s from 0 to 50 Hz and back
+    if (auto ec = mb::write_registers(stream, c, 1, reg::acceleration_time, ramps))
+        return fail("write 0xC901", ec);
+    if (auto ec = mb::write_register(stream, c, 1, reg::frequency_setpoint, 2500))
+        return fail("write 0xC801", ec);
+    fmt::print(
+        "  wrote ramps 0xC901-0xC902 = 1.0 s (FC 16) and setpoint 0xC801 = 25.00 Hz (FC 6)\n");
+    if (auto ec = mb::write_register(stream, c, 1, reg::control_word, mb::sim::control::start))
+        return fail("start", ec);
+    fmt::print("  start, the paper's frame: {} -> echoed: write single register 0xC800 = 0x0025\n",
+               hex(c.request_bytes()));
+    const auto show_ramp = [&](std::uint16_t until_hz) -> std::error_code {
+        const auto t0 = std::chrono::steady_clock::now();
+        for (;;) {
+            std::this_thread::sleep_for(100ms);
+            if (auto ec = read_live()) return ec;
+            const double t =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            fmt::print("  t={:4.2f} s  status 0x{:04X}  output frequency {:5.2f} Hz\n", t, live[0],
+                       live[1] / 100.0);
+            if (live[1] == until_hz) return {};
+            if (t > 5) return make_error_code(errc::timeout);
+        }
+    };
+    if (auto ec = show_ramp(2500)) return fail("ramp", ec);
+    if (auto ec = mb::write_register(stream, c, 1, reg::control_word,
+                                     mb::sim::control::enable | mb::sim::control::setpoint_enable))
+        return fail("stop", ec);
+    fmt::print("  stop with the ramp: 0xC800 = 0x0024 (run bit off)\n");
+    if (auto ec = show_ramp(0)) return fail("ramp down", ec);
+    std::array<std::uint16_t, 1> one{};
+    const auto unmapped = mb::read_holding_registers(stream, c, 1, 0x0000, one);
+    fmt::print("  read register 0x0000, which the drive does not have: {}\n",
+               unmapped ? error_text(unmapped) : "unexpectedly answered");
+    mb::client_config quick;
+    quick.response_timeout = 50ms;
+    quick.retries = 2;
+    mb::client short_wait(quick);
+    const auto absent = mb::read_holding_registers(stream, short_wait, 7, reg::status_word, one);
+    fmt::print("  read from unit 7, where no drive is: {} after {} requests\n",
+               absent ? error_text(absent) : "unexpectedly answered", short_wait.attempts());
+    return exit_ok;
+}
+
 int run_demo(const demo_options& d) {
     ml::slave_config on_pty;
     on_pty.format.baud = host::pty_line_baud;
@@ -291,7 +367,8 @@ int run_demo(const demo_options& d) {
     fmt::print("  MOVILINK master: {} transactions, {} succeeded, {} failed, {} resends\n",
                s.transactions, s.succeeded, s.failed, s.resends);
     if (const int rc = sensor_part(d)) return rc;
-    return lecom_part(d);
+    if (const int rc = lecom_part(d)) return rc;
+    return modbus_part(d);
 }
 
 } // namespace

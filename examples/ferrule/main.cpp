@@ -1,4 +1,5 @@
-// ferrule: talk to drives and sensors on a serial port, decode captures, run the demo.
+// ferrule: talk to drives and sensors on a serial port or over Modbus TCP, decode captures,
+// run the demo.
 // Exit codes: 0 ok, 1 the device reported an error, 2 usage, 3 timeout / transport error.
 #include <CLI/CLI.hpp>
 
@@ -13,6 +14,7 @@ int main(int argc, char** argv) {
     ferrule::cli::add_movilink(app, exit_status);
     ferrule::cli::add_dimetix(app, exit_status);
     ferrule::cli::add_lecom(app, exit_status);
+    ferrule::cli::add_modbus(app, exit_status);
     ferrule::cli::add_decode(app, exit_status);
     ferrule::cli::add_demo(app, exit_status);
     try {

@@ -1,21 +1,29 @@
-// ferrule-sim: simulated devices on a pseudo-terminal. Prints the device path to open
-// (and keeps a symlink with --link); runs until interrupted.
+// ferrule-sim: simulated devices on a pseudo-terminal (and Modbus TCP). Prints the device
+// path to open (and keeps a symlink with --link); runs until interrupted.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
+
+#include <asio/io_context.hpp>
+#include <asio/ip/address.hpp>
 
 #include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <deque>
+#include <mutex>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "ferrule/asio/modbus_tcp_server.hpp"
 #include "ferrule/asio/pty_server.hpp"
 #include "ferrule/dimetix/sim_sensor.hpp"
 #include "ferrule/lecom/constants.hpp"
 #include "ferrule/lecom/sim_station.hpp"
 #include "ferrule/movilink/sim_station.hpp"
+#include "modbus_sim.hpp"
 
 namespace {
 
@@ -36,6 +44,9 @@ struct sim_options {
     std::string family = "4900";
     bool bare_replies = false;
     unsigned trip = 0;
+    // Modbus VFDs
+    std::optional<std::uint16_t> tcp_port;
+    bool tcp_only = false;
     std::string link;
     double drop = 0;
     double corrupt = 0;
@@ -52,9 +63,11 @@ ferrule::host::pty_faults faults(const sim_options& o) {
     return f;
 }
 
-// `prepare(stations)` runs once the pty is open, before serving.
+// `prepare(stations)` runs once the pty is open, before serving. `also` is a line printed on
+// stdout after the device path (ferrule-sim modbus: the TCP server's address).
 template <class Station, class Prepare>
-int serve(const sim_options& o, std::deque<Station>& stations, const char* what, Prepare prepare) {
+int serve(const sim_options& o, std::deque<Station>& stations, const char* what, Prepare prepare,
+          const std::string& also = {}) {
     ferrule::host::pty_server<Station> server(faults(o));
     if (auto ec = server.open()) {
         fmt::print(stderr, "ferrule-sim: openpty: {}\n", ec.message());
@@ -69,6 +82,7 @@ int serve(const sim_options& o, std::deque<Station>& stations, const char* what,
     }
     prepare(stations);
     fmt::print("{}\n", o.link.empty() ? server.path() : o.link);
+    if (!also.empty()) fmt::print("{}\n", also);
     fmt::print(stderr, "ferrule-sim: {} on {}{}{}; Ctrl-C to stop\n", what, server.path(),
                o.link.empty() ? "" : " (link ", o.link.empty() ? "" : o.link + ")");
     std::fflush(stdout);
@@ -79,8 +93,9 @@ int serve(const sim_options& o, std::deque<Station>& stations, const char* what,
     return 0;
 }
 
-void add_common(CLI::App& sub, sim_options& o, const char* address_help) {
-    sub.add_option("--address,-a", o.addresses, address_help);
+void add_common(CLI::App& sub, sim_options& o, const char* address_help,
+                const std::string& address_names = "--address,-a") {
+    sub.add_option(address_names, o.addresses, address_help);
     sub.add_option("--link", o.link, "also create this symlink to the pty (removed on exit)");
     sub.add_option("--drop", o.drop, "percent of replies never sent")
         ->check(CLI::Range(0.0, 100.0));
@@ -88,6 +103,81 @@ void add_common(CLI::App& sub, sim_options& o, const char* address_help) {
         ->check(CLI::Range(0.0, 100.0));
     sub.add_option("--delay", o.delay_ms, "extra delay of every reply in ms");
     sub.add_option("--seed", o.seed, "seed of the fault pattern");
+}
+
+// The first unit's drive over TCP on an asio thread until `stop`; its address on `listening`.
+class tcp_side {
+public:
+    tcp_side(ferrule::modbus::sim::vfd& drive, std::mutex& lock, const sim_options& o)
+        : model_(drive, lock), server_(ctx_.get_executor(), model_, tcp_options(o)) {}
+    ~tcp_side() {
+        if (thread_.joinable()) thread_.join();
+    }
+
+    std::error_code listen(std::uint16_t port) {
+        return server_.listen({asio::ip::make_address("127.0.0.1"), port});
+    }
+    std::string address() const { return fmt::format("127.0.0.1:{}", server_.port()); }
+    void run() {
+        while (!stop) ctx_.run_for(std::chrono::milliseconds(50));
+        server_.close();
+        const auto& s = server_.stats();
+        fmt::print(stderr, "ferrule-sim: TCP: {} connections, {} replies\n", s.accepted, s.replies);
+    }
+    void start() {
+        thread_ = std::thread([this] { run(); });
+    }
+
+private:
+    static ferrule::host::modbus_tcp_server_options tcp_options(const sim_options& o) {
+        ferrule::host::modbus_tcp_server_options t;
+        t.processing_time = std::chrono::milliseconds(o.delay_ms);
+        return t;
+    }
+    asio::io_context ctx_;
+    ferrule::sim_app::locked_vfd model_;
+    ferrule::host::modbus_tcp_server<ferrule::sim_app::locked_vfd> server_;
+    std::thread thread_;
+};
+
+int serve_modbus(sim_options& o) {
+    namespace mb = ferrule::modbus;
+    if (o.addresses.empty()) o.addresses.push_back(1);
+    if (o.tcp_only && !o.tcp_port) throw CLI::ValidationError("--tcp-only", "needs --tcp PORT");
+    std::mutex lock;
+    std::deque<ferrule::sim_app::locked_station> drives;
+    for (unsigned a : o.addresses) {
+        for (const auto& d : drives)
+            if (d.station.session.config().units.contains(static_cast<std::uint8_t>(a)))
+                throw CLI::ValidationError("--unit", fmt::format("{} is given twice", a));
+        mb::server_config cfg;
+        cfg.units = mb::unit_set{static_cast<std::uint8_t>(a)};
+        // A pty has no wire time: frames end after t3.5 of a fast line (1.75 ms).
+        cfg.format = {ferrule::host::pty_line_baud, 8, ferrule::parity::even, 1};
+        drives.emplace_back(cfg, lock);
+    }
+    std::optional<tcp_side> tcp;
+    if (o.tcp_port) {
+        tcp.emplace(drives.front().station.drive(), lock, o);
+        if (auto ec = tcp->listen(*o.tcp_port)) {
+            fmt::print(stderr, "ferrule-sim: --tcp {}: {}\n", *o.tcp_port, ec.message());
+            return 3;
+        }
+        fmt::print(stderr, "ferrule-sim: Modbus TCP server on {} (unit {}'s VFD, any unit id)\n",
+                   tcp->address(), o.addresses.front());
+        if (o.tcp_only) {
+            fmt::print("{}\n", tcp->address());
+            std::fflush(stdout);
+            tcp->run();
+            return 0;
+        }
+        tcp->start();
+    }
+    const int rc = serve(
+        o, drives, "simulated Modbus VFDs (RTU)", [](auto&) {},
+        tcp ? tcp->address() : std::string());
+    stop = true; // the TCP thread ends with the pty, also when the pty could not open
+    return rc;
 }
 
 } // namespace
@@ -190,6 +280,18 @@ int main(int argc, char** argv) {
                 for (auto& d : all) d.drive.trip(static_cast<std::uint16_t>(o.trip));
         });
     });
+
+    auto* mbs = app.add_subcommand(
+        "modbus", "simulated VFDs as a Modbus RTU server on a pty and/or a Modbus TCP server");
+    add_common(*mbs, o,
+               "unit id (1-247) of a simulated VFD; repeat for several on the line (default 1)",
+               "--unit,--address,-a");
+    mbs->get_option("--unit")->check(CLI::Range(1, 247));
+    mbs->add_option("--tcp", o.tcp_port,
+                    "also serve the first unit's VFD as a Modbus TCP server on 127.0.0.1:PORT (0: "
+                    "any free port)");
+    mbs->add_flag("--tcp-only", o.tcp_only, "serve only over TCP, no pty (needs --tcp)");
+    mbs->callback([&] { rc = serve_modbus(o); });
 
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);

@@ -1,0 +1,393 @@
+// `ferrule decode modbus-rtu|modbus-tcp`: requests and responses of a Modbus capture.
+//
+// RTU frames carry no direction. At each offset the bytes are framed both ways, by the
+// length a request and a response of their function code would have (rtu_decoder in each
+// mode); the framing whose CRC checks wins. When both check (FC 5, 6 and 8 echo the request
+// whole), a frame that follows a request of the same unit and function is its response,
+// any other a request. TCP frames likewise: a frame with the transaction id, unit and
+// function of the request before it is its response; otherwise one that parses as a request
+// is a request.
+#include <fmt/core.h>
+#include <nlohmann/json.hpp>
+
+#include <optional>
+#include <vector>
+
+#include "common.hpp"
+#include "decode.hpp"
+#include "ferrule/core/checksum.hpp"
+#include "ferrule/modbus/error.hpp"
+#include "ferrule/modbus/pdu.hpp"
+#include "ferrule/modbus/registers.hpp"
+#include "ferrule/modbus/rtu.hpp"
+#include "ferrule/modbus/tcp.hpp"
+#include "modbus_text.hpp"
+
+namespace ferrule::cli {
+namespace {
+
+namespace mb = ferrule::modbus;
+
+// The request a response answers: its PDU bytes (the parsed request spans them).
+struct pending {
+    std::vector<std::uint8_t> pdu;
+    std::uint8_t unit = 0;
+    std::uint16_t transaction = 0;
+};
+
+std::string bits_text(std::span<const std::uint8_t> packed, std::size_t n) {
+    std::string s;
+    for (std::size_t i = 0; i < n; ++i)
+        s += fmt::format("{}{}", i ? " " : "", (packed[i / 8] >> (i % 8)) & 1);
+    return s;
+}
+
+std::string registers_text(std::span<const std::uint8_t> data, nlohmann::json& j) {
+    std::string s;
+    nlohmann::json regs = nlohmann::json::array();
+    for (std::size_t i = 0; i + 1 < data.size(); i += 2) {
+        const std::uint16_t r = mb::register_at(data, i / 2);
+        regs.push_back(r);
+        s += fmt::format(" 0x{:04X}", r);
+    }
+    j["registers"] = regs;
+    return s;
+}
+
+const char* diag_name(std::uint16_t sub) {
+    switch (static_cast<mb::diag_sub>(sub)) {
+    case mb::diag_sub::return_query_data: return "return query data";
+    case mb::diag_sub::restart_comm: return "restart communications";
+    case mb::diag_sub::return_diagnostic_register: return "return diagnostic register";
+    case mb::diag_sub::force_listen_only: return "force listen only mode";
+    case mb::diag_sub::clear_counters: return "clear counters";
+    case mb::diag_sub::bus_message_count: return "bus message count";
+    case mb::diag_sub::bus_comm_error_count: return "bus communication error count";
+    case mb::diag_sub::bus_exception_count: return "bus exception error count";
+    case mb::diag_sub::server_message_count: return "server message count";
+    case mb::diag_sub::server_no_response_count: return "server no response count";
+    case mb::diag_sub::server_nak_count: return "server NAK count";
+    case mb::diag_sub::server_busy_count: return "server busy count";
+    case mb::diag_sub::bus_char_overrun_count: return "bus character overrun count";
+    }
+    return "sub-function";
+}
+
+// A request PDU's fields; false when it is none.
+bool describe_request(std::span<const std::uint8_t> pdu, nlohmann::json& j, std::string& text) {
+    const auto r = mb::parse_request(pdu);
+    if (!r) return false;
+    const auto fc = static_cast<std::uint8_t>(r->function);
+    text = function_name(fc);
+    switch (r->function) {
+    case mb::function::read_coils:
+    case mb::function::read_discrete_inputs:
+    case mb::function::read_holding_registers:
+    case mb::function::read_input_registers:
+        j["address"] = r->address;
+        j["quantity"] = r->quantity;
+        text += fmt::format(" 0x{:04X}, quantity {}", r->address, r->quantity);
+        break;
+    case mb::function::write_single_coil:
+        j["address"] = r->address;
+        j["value"] = r->value == mb::coil_on;
+        text += fmt::format(" 0x{:04X} = {}", r->address, r->value == mb::coil_on ? "ON" : "OFF");
+        break;
+    case mb::function::write_single_register:
+        j["address"] = r->address;
+        j["value"] = r->value;
+        text += fmt::format(" 0x{:04X} = 0x{:04X} ({})", r->address, r->value, r->value);
+        break;
+    case mb::function::diagnostics:
+        j["sub_function"] = r->value;
+        j["data"] = load_be16(r->data.data());
+        text += fmt::format(" {:02}: {}, data 0x{:04X}", r->value, diag_name(r->value),
+                            load_be16(r->data.data()));
+        break;
+    case mb::function::write_multiple_coils:
+        j["address"] = r->address;
+        j["quantity"] = r->quantity;
+        text += fmt::format(" 0x{:04X}, quantity {}: {}", r->address, r->quantity,
+                            bits_text(r->data, r->quantity));
+        break;
+    case mb::function::write_multiple_registers:
+        j["address"] = r->address;
+        j["quantity"] = r->quantity;
+        text += fmt::format(" 0x{:04X}, quantity {}:{}", r->address, r->quantity,
+                            registers_text(r->data, j));
+        break;
+    case mb::function::read_write_multiple_registers:
+        j["address"] = r->address;
+        j["quantity"] = r->quantity;
+        j["write_address"] = r->write_address;
+        text += fmt::format(": read 0x{:04X}, quantity {}; write 0x{:04X}:{}", r->address,
+                            r->quantity, r->write_address, registers_text(r->data, j));
+        break;
+    case mb::function::encapsulated_interface:
+        j["read_device_id_code"] = r->read_device_id_code;
+        j["object_id"] = r->object_id;
+        text +=
+            fmt::format(", code {}, from object 0x{:02X}", r->read_device_id_code, r->object_id);
+        break;
+    }
+    return true;
+}
+
+// A response PDU's fields, checked against its request when that is known.
+bool describe_response(std::span<const std::uint8_t> pdu, const pending* asked, nlohmann::json& j,
+                       std::string& text) {
+    const std::uint8_t fc = pdu[0];
+    if (fc > mb::exception_flag && pdu.size() == 2) {
+        const auto ec = std::error_code(pdu[1], mb::device_category());
+        j["exception"] = pdu[1];
+        j["exception_text"] = ec.message();
+        text = fmt::format("{}: {}", function_name(static_cast<std::uint8_t>(fc & 0x7F)),
+                           error_text(ec));
+        return true;
+    }
+    std::optional<mb::request> sent;
+    if (asked && !asked->pdu.empty() && asked->pdu[0] == fc) {
+        const auto r = mb::parse_request(asked->pdu);
+        if (r) sent = *r;
+    }
+    text = function_name(fc);
+    if (sent) {
+        const auto parsed = mb::parse_response(*sent, pdu);
+        if (!parsed) {
+            j["error"] = parsed.error().message();
+            text += fmt::format(": does not answer the request before it ({})",
+                                parsed.error().message());
+            return false;
+        }
+    }
+    switch (static_cast<mb::function>(fc)) {
+    case mb::function::read_coils:
+    case mb::function::read_discrete_inputs: {
+        const std::size_t n = sent ? sent->quantity : 8u * (pdu.size() - 2);
+        j["bits"] = bits_text(pdu.subspan(2), n);
+        text += sent
+                    ? fmt::format(" from 0x{:04X}: {}", sent->address, bits_text(pdu.subspan(2), n))
+                    : fmt::format(", {} bytes: {}", pdu[1], bits_text(pdu.subspan(2), n));
+        return true;
+    }
+    case mb::function::read_holding_registers:
+    case mb::function::read_input_registers:
+    case mb::function::read_write_multiple_registers:
+        if (sent) {
+            j["address"] = sent->address;
+            text += fmt::format(" from 0x{:04X}:", sent->address);
+        } else {
+            text += ":";
+        }
+        text += registers_text(pdu.subspan(2), j);
+        return true;
+    case mb::function::write_single_coil:
+    case mb::function::write_single_register:
+    case mb::function::write_multiple_coils:
+    case mb::function::write_multiple_registers:
+    case mb::function::diagnostics:
+    case mb::function::encapsulated_interface: break;
+    default: text += ", not decoded"; return true;
+    }
+    if (fc == 43) {
+        mb::request q;
+        q.function = mb::function::encapsulated_interface;
+        q.read_device_id_code = pdu[2];
+        const auto r = mb::parse_response(q, pdu);
+        if (!r) return false;
+        auto rest = r->data;
+        mb::device_id_object o;
+        nlohmann::json objects = nlohmann::json::object();
+        while (mb::next_device_id_object(rest, o)) {
+            const std::string v(reinterpret_cast<const char*>(o.value.data()), o.value.size());
+            objects[object_name(o.id)] = v;
+            text += fmt::format(", {} \"{}\"", object_name(o.id), v);
+        }
+        j["objects"] = objects;
+        j["more_follows"] = r->more_follows;
+        return true;
+    }
+    const std::uint16_t a = load_be16(&pdu[1]);
+    const std::uint16_t v = load_be16(&pdu[3]);
+    if (fc == 8) {
+        j["sub_function"] = a;
+        j["data"] = v;
+        text += fmt::format(" {:02}: {}, data 0x{:04X} ({})", a, diag_name(a), v, v);
+    } else if (fc == 5) {
+        j["address"] = a;
+        j["value"] = v == mb::coil_on;
+        text += fmt::format(" 0x{:04X} = {} done", a, v == mb::coil_on ? "ON" : "OFF");
+    } else if (fc == 6) {
+        j["address"] = a;
+        j["value"] = v;
+        text += fmt::format(" 0x{:04X} = 0x{:04X} ({}) done", a, v, v);
+    } else {
+        j["address"] = a;
+        j["quantity"] = v;
+        text += fmt::format(" 0x{:04X}, quantity {} done", a, v);
+    }
+    return true;
+}
+
+void print(const decode_options& o, const nlohmann::json& j, const std::string& text) {
+    if (o.json)
+        fmt::print("{}\n", j.dump());
+    else
+        fmt::print("{}\n", text);
+}
+
+// Where an RTU frame of `mode` with a good CRC starts at bytes[0]: its size, else 0.
+std::size_t rtu_frame_at(std::span<const std::uint8_t> bytes, mb::rtu_decoder::accept mode) {
+    mb::rtu_decoder d(mode);
+    std::size_t used = 0;
+    for (;;) {
+        const auto s = d.feed(bytes.subspan(used));
+        used += s.consumed;
+        if (s.what == mb::rtu_decoder::status::frame) {
+            const std::size_t start = used - d.adu().size();
+            return start == 0 ? d.adu().size() : 0;
+        }
+        if (s.what == mb::rtu_decoder::status::need_more || d.skipped() > 0) return 0;
+    }
+}
+
+// The bytes are as long as a request or a response of their function code would be.
+bool framed_exactly(std::span<const std::uint8_t> bytes) {
+    if (bytes.size() < 4) return false;
+    for (const std::size_t len : {mb::expected_request_length(bytes.subspan(1)),
+                                  mb::expected_response_length(bytes.subspan(1))})
+        if (len != 0 && len != mb::no_frame && len + 3 == bytes.size()) return true;
+    return false;
+}
+
+} // namespace
+
+int decode_modbus_rtu(const decode_options& o, std::span<const std::uint8_t> bytes) {
+    using accept = mb::rtu_decoder::accept;
+    bool clean = true;
+    pending asked;
+    std::size_t pos = 0;
+    std::size_t junk_from = 0;
+    // Bytes between frames: a frame with a bad CRC at their end (its length right for its
+    // function code), and before it bytes that form none.
+    const auto flush_junk = [&](std::size_t until) {
+        if (until <= junk_from) return;
+        clean = false;
+        const auto junk = bytes.subspan(junk_from, until - junk_from);
+        std::size_t k = 0;
+        while (k < junk.size() && !framed_exactly(junk.subspan(k))) ++k;
+        if (k > 0) print_skipped(o, junk_from, junk.first(k), "not a Modbus RTU frame");
+        if (k == junk.size()) return;
+        const auto f = junk.subspan(k);
+        const auto got = static_cast<std::uint16_t>(f[f.size() - 2] | f[f.size() - 1] << 8);
+        const std::uint16_t want = crc16_modbus(f.first(f.size() - 2));
+        print(o,
+              {{"offset", junk_from + k},
+               {"bytes", hex(f)},
+               {"crc", "bad"},
+               {"unit", f[0]},
+               {"function", f[1] & 0x7F}},
+              fmt::format("@{:<4} {:<26} unit {}: {}: CRC bad: 0x{:04X}, the bytes give 0x{:04X}",
+                          junk_from + k, hex(f), f[0], function_name(f[1] & 0x7F), got, want));
+    };
+    while (pos < bytes.size()) {
+        const auto rest = bytes.subspan(pos);
+        const std::size_t as_request = rtu_frame_at(rest, accept::requests);
+        const std::size_t as_response = rtu_frame_at(rest, accept::responses);
+        if (as_request == 0 && as_response == 0) {
+            ++pos;
+            continue;
+        }
+        flush_junk(pos);
+        const bool answers = as_response != 0 && !asked.pdu.empty() && asked.unit == rest[0] &&
+                             (rest[1] & 0x7F) == asked.pdu[0];
+        const bool request = as_request != 0 && !answers;
+        const std::size_t n = request ? as_request : as_response;
+        const auto frame = rest.first(n);
+        const auto pdu = frame.subspan(1, n - 3);
+        nlohmann::json j{{"offset", pos},
+                         {"bytes", hex(frame)},
+                         {"direction", request ? "request" : "response"},
+                         {"unit", frame[0]},
+                         {"function", pdu[0] & 0x7F},
+                         {"crc", "ok"}};
+        std::string fields;
+        bool ok = true;
+        if (request) {
+            if (!describe_request(pdu, j, fields))
+                fields = fmt::format("{}: deserves exception {:02X}", function_name(pdu[0]),
+                                     mb::request_exception(pdu));
+            asked = {{pdu.begin(), pdu.end()}, frame[0], 0};
+        } else {
+            ok = describe_response(pdu, answers ? &asked : nullptr, j, fields);
+            asked = {};
+        }
+        clean = clean && ok;
+        j["text"] = fields;
+        const std::string to = frame[0] == mb::broadcast_address ? "unit 0 (broadcast)"
+                                                                 : fmt::format("unit {}", frame[0]);
+        print(o, j,
+              fmt::format("@{:<4} {:<26} {} {}: {}, CRC ok", pos, hex(frame),
+                          request ? "request " : "response", to, fields));
+        pos += n;
+        junk_from = pos;
+    }
+    flush_junk(pos);
+    return clean ? exit_ok : exit_device_error;
+}
+
+int decode_modbus_tcp(const decode_options& o, std::span<const std::uint8_t> bytes) {
+    bool clean = true;
+    pending asked;
+    mb::tcp_decoder d;
+    std::size_t pos = 0;
+    std::size_t last_end = 0;
+    while (pos < bytes.size()) {
+        const auto s = d.feed(bytes.subspan(pos));
+        pos += s.consumed;
+        if (s.what != mb::tcp_decoder::status::frame) continue;
+        const auto frame = d.adu();
+        const std::size_t start = pos - frame.size();
+        if (start > last_end) {
+            print_skipped(o, last_end, bytes.subspan(last_end, start - last_end),
+                          "not a Modbus TCP frame");
+            clean = false;
+        }
+        last_end = pos;
+        const auto pdu = d.pdu();
+        const bool answers = !asked.pdu.empty() && asked.transaction == d.transaction() &&
+                             asked.unit == d.unit() && (pdu[0] & 0x7F) == asked.pdu[0];
+        nlohmann::json j{{"offset", start},
+                         {"bytes", hex(frame)},
+                         {"transaction", d.transaction()},
+                         {"unit", d.unit()},
+                         {"function", pdu[0] & 0x7F}};
+        std::string fields;
+        bool request = false;
+        if (!answers) {
+            nlohmann::json rj = j;
+            request = describe_request(pdu, rj, fields);
+            if (request) j = rj;
+        }
+        bool ok = true;
+        if (request) {
+            asked = {{pdu.begin(), pdu.end()}, d.unit(), d.transaction()};
+        } else {
+            ok = describe_response(pdu, answers ? &asked : nullptr, j, fields);
+            asked = {};
+        }
+        clean = clean && ok;
+        j["direction"] = request ? "request" : "response";
+        j["text"] = fields;
+        print(o, j,
+              fmt::format("@{:<4} {} transaction {} unit {}: {}", start,
+                          request ? "request " : "response", d.transaction(), d.unit(), fields));
+    }
+    if (last_end < bytes.size()) {
+        print_skipped(o, last_end, bytes.subspan(last_end), "incomplete or not a Modbus TCP frame");
+        clean = false;
+    }
+    return clean ? exit_ok : exit_device_error;
+}
+
+} // namespace ferrule::cli

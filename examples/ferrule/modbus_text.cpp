@@ -1,0 +1,136 @@
+#include "modbus_text.hpp"
+
+#include <fmt/core.h>
+
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+#include "ferrule/modbus/error.hpp"
+
+namespace ferrule::cli {
+
+namespace mb = ferrule::modbus;
+
+std::optional<value_type> parse_value_type(const std::string& s) {
+    if (s == "u16") return value_type::u16;
+    if (s == "i16") return value_type::i16;
+    if (s == "u32") return value_type::u32;
+    if (s == "i32") return value_type::i32;
+    if (s == "float") return value_type::f32;
+    if (s == "hex") return value_type::hex;
+    return std::nullopt;
+}
+
+std::optional<mb::word_order> parse_word_order(const std::string& s) {
+    if (s == "abcd") return mb::word_order::abcd;
+    if (s == "badc") return mb::word_order::badc;
+    if (s == "cdab") return mb::word_order::cdab;
+    if (s == "dcba") return mb::word_order::dcba;
+    return std::nullopt;
+}
+
+unsigned registers_per_value(value_type t) {
+    return t == value_type::u32 || t == value_type::i32 || t == value_type::f32 ? 2 : 1;
+}
+
+double value_number(value_type t, std::span<const std::uint16_t> r, mb::word_order o) {
+    switch (t) {
+    case value_type::u16: return mb::to_u16(r[0], o);
+    case value_type::i16: return mb::to_i16(r[0], o);
+    case value_type::u32: return mb::to_u32(r[0], r[1], o);
+    case value_type::i32: return mb::to_i32(r[0], r[1], o);
+    case value_type::f32: return mb::to_f32(r[0], r[1], o);
+    case value_type::hex: return r[0];
+    }
+    return 0;
+}
+
+std::string value_text(value_type t, std::span<const std::uint16_t> r, mb::word_order o) {
+    if (t == value_type::hex) return fmt::format("0x{:04X}", r[0]);
+    if (t == value_type::f32) return fmt::format("{}", mb::to_f32(r[0], r[1], o));
+    return fmt::format("{}", static_cast<std::int64_t>(value_number(t, r, o)));
+}
+
+namespace {
+// An integer in decimal or 0x hex, within [lo, hi].
+std::optional<std::int64_t> parse_integer(const std::string& s, std::int64_t lo, std::int64_t hi) {
+    if (s.empty()) return std::nullopt;
+    errno = 0;
+    char* end = nullptr;
+    const long long v = std::strtoll(s.c_str(), &end, 0);
+    if (errno != 0 || *end != '\0' || v < lo || v > hi) return std::nullopt;
+    return v;
+}
+} // namespace
+
+std::optional<std::vector<std::uint16_t>> parse_value(value_type t, const std::string& s,
+                                                      mb::word_order o) {
+    using v16 = std::vector<std::uint16_t>;
+    const auto two = [](std::array<std::uint16_t, 2> a) { return v16{a[0], a[1]}; };
+    switch (t) {
+    case value_type::u16:
+        if (const auto v = parse_integer(s, 0, 0xFFFF))
+            return v16{mb::from_u16(static_cast<std::uint16_t>(*v), o)};
+        break;
+    case value_type::i16:
+        if (const auto v = parse_integer(s, -32768, 32767))
+            return v16{mb::from_i16(static_cast<std::int16_t>(*v), o)};
+        break;
+    case value_type::hex:
+        if (const auto v = parse_integer(s.rfind("0x", 0) == 0 ? s : "0x" + s, 0, 0xFFFF))
+            return v16{static_cast<std::uint16_t>(*v)};
+        break;
+    case value_type::u32:
+        if (const auto v = parse_integer(s, 0, 0xFFFFFFFF))
+            return two(mb::from_u32(static_cast<std::uint32_t>(*v), o));
+        break;
+    case value_type::i32:
+        if (const auto v = parse_integer(s, std::numeric_limits<std::int32_t>::min(),
+                                         std::numeric_limits<std::int32_t>::max()))
+            return two(mb::from_i32(static_cast<std::int32_t>(*v), o));
+        break;
+    case value_type::f32: {
+        char* end = nullptr;
+        const float f = std::strtof(s.c_str(), &end);
+        if (!s.empty() && *end == '\0' && std::isfinite(f)) return two(mb::from_f32(f, o));
+        break;
+    }
+    }
+    return std::nullopt;
+}
+
+std::string function_name(std::uint8_t fc) {
+    switch (static_cast<mb::function>(fc)) {
+    case mb::function::read_coils: return "read coils";
+    case mb::function::read_discrete_inputs: return "read discrete inputs";
+    case mb::function::read_holding_registers: return "read holding registers";
+    case mb::function::read_input_registers: return "read input registers";
+    case mb::function::write_single_coil: return "write single coil";
+    case mb::function::write_single_register: return "write single register";
+    case mb::function::diagnostics: return "diagnostics";
+    case mb::function::write_multiple_coils: return "write multiple coils";
+    case mb::function::write_multiple_registers: return "write multiple registers";
+    case mb::function::read_write_multiple_registers: return "read/write multiple registers";
+    case mb::function::encapsulated_interface: return "read device identification";
+    }
+    return fmt::format("function 0x{:02X}", fc);
+}
+
+std::string error_text(std::error_code ec) {
+    if (ec.category() == mb::device_category())
+        return fmt::format("exception {:02X}: {}", ec.value(), ec.message());
+    return ec.message();
+}
+
+std::string object_name(std::uint8_t id) {
+    static constexpr std::array<const char*, 7> names{
+        "VendorName",  "ProductCode", "MajorMinorRevision", "VendorUrl",
+        "ProductName", "ModelName",   "UserApplicationName"};
+    if (id < names.size()) return names[id];
+    return fmt::format("object 0x{:02X}", id);
+}
+
+} // namespace ferrule::cli
