@@ -10,64 +10,21 @@
 //     (the master sees a timeout), flip bits of one byte, or send it later
 #pragma once
 
-#include <algorithm>
-#include <array>
 #include <cstddef>
-#include <cstdint>
-#include <span>
 
-#include "ferrule/core/mock_serial.hpp"
-#include "ferrule/core/session.hpp"
-#include "ferrule/core/time.hpp"
+#include "ferrule/core/sim_line.hpp"
 #include "ferrule/lecom/sim_station.hpp"
 
 namespace ferrule::lecom::sim {
 
 // Fault knobs (drop / corrupt / delay the next replies): see ferrule::reply_faults.
 template <std::size_t N>
-class bus final : public mock_peer, public reply_faults {
+class bus final : public sim_line<station, N> {
 public:
     // A station at the end of the line; nullptr when all N places are taken.
     station* add(const slave_config& slave_cfg = {}, const drive_config& drive_cfg = {}) {
-        if (size_ == N) return nullptr;
-        station& st = stations_[size_++];
-        st = station(slave_cfg, drive_cfg);
-        return &st;
+        return this->place(station(slave_cfg, drive_cfg));
     }
-
-    std::size_t size() const noexcept { return size_; }
-    station& operator[](std::size_t i) noexcept { return stations_[i]; }
-    const station& operator[](std::size_t i) const noexcept { return stations_[i]; }
-
-    // Runs every drive's speed model up to `now`.
-    void advance(time_point now) noexcept {
-        for (auto& st : active()) st.drive.advance(now);
-    }
-
-    // --- mock_peer -----------------------------------------------------------------------
-    void on_receive(mock_serial&, std::span<const std::uint8_t> bytes, time_point end) override {
-        for (auto& st : active()) st.on_receive(bytes, end);
-    }
-
-    time_point wake_at() const noexcept override {
-        time_point t = never;
-        for (const auto& st : active()) t = std::min(t, st.reply_at());
-        return t;
-    }
-
-    void on_wake(mock_serial& line, time_point now) override {
-        for (auto& st : active()) {
-            const session_action a = st.next(now);
-            if (a.what == session_action::kind::send) deliver(line, a.bytes, now);
-        }
-    }
-
-private:
-    std::span<station> active() noexcept { return {stations_.data(), size_}; }
-    std::span<const station> active() const noexcept { return {stations_.data(), size_}; }
-
-    std::array<station, N> stations_{};
-    std::size_t size_ = 0;
 };
 
 } // namespace ferrule::lecom::sim

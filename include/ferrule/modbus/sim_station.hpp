@@ -33,6 +33,7 @@ struct station {
         return session.next(now);
     }
     time_point wake_at() const noexcept { return session.wake_at(); }
+    void advance(time_point now) noexcept { session.model().advance(now); }
 
     vfd& drive() noexcept { return session.model(); }
     const vfd& drive() const noexcept { return session.model(); }

@@ -40,7 +40,8 @@ struct station {
     }
 
     session_action next(time_point now) noexcept { return session.next(now); }
-    time_point reply_at() const noexcept { return session.reply_at(); }
+    time_point wake_at() const noexcept { return session.reply_at(); }
+    void advance(time_point now) noexcept { drive.advance(now); }
 };
 
 } // namespace ferrule::movilink::sim
