@@ -22,7 +22,8 @@ constexpr std::uint16_t setpoint_register = 0x0010;
 constexpr auto format = ferrule::modbus::default_format;
 
 board::uart_stream uart(format);
-ferrule::modbus::client session([] {
+// RTU only: the TCP path is not compiled in.
+ferrule::modbus::basic_client<ferrule::modbus::client_link::rtu> session([] {
     ferrule::modbus::client_config c;
     c.format = format;
     c.inter_frame_gap = ferrule::modbus::t35(format);

@@ -84,16 +84,23 @@ struct client_stats {
     std::uint32_t echo_bytes = 0;
 };
 
-class client {
+// Which link a client speaks: chosen by client_config::rtu at run time (any), or fixed at
+// compile time, so firmware for one link does not carry the other's code.
+enum class client_link : std::uint8_t { any, rtu, tcp };
+
+template <client_link Link = client_link::any>
+class basic_client {
 public:
-    explicit client(const client_config& cfg = {}) noexcept : cfg_(cfg) {}
+    explicit basic_client(const client_config& cfg = {}) noexcept : cfg_(cfg) {
+        if constexpr (Link != client_link::any) cfg_.rtu = Link == client_link::rtu;
+    }
 
     // Starts a transaction with `unit`. RTU: 1…247, or 0 (broadcast) for FC 5, 6, 15, 16.
     // TCP: any unit id. invalid_argument for a request encode_request() refuses.
     std::error_code start(std::uint8_t unit, const request& r) noexcept {
         if (busy()) return errc::busy;
-        if (cfg_.rtu && unit > max_unit_address) return errc::invalid_argument;
-        const bool broadcast = cfg_.rtu && unit == broadcast_address;
+        if (rtu() && unit > max_unit_address) return errc::invalid_argument;
+        const bool broadcast = rtu() && unit == broadcast_address;
         if (broadcast && r.function != function::write_single_coil &&
             r.function != function::write_single_register &&
             r.function != function::write_multiple_coils &&
@@ -119,7 +126,7 @@ public:
         no_reply_ =
             broadcast || (r.function == function::diagnostics &&
                           r.value == static_cast<std::uint16_t>(diag_sub::force_listen_only));
-        if (cfg_.rtu) tx_size_ = *encode_rtu(unit, pdu(), tx_);
+        if (rtu()) tx_size_ = *encode_rtu(unit, pdu(), tx_);
         attempts_ = 0;
         error_ = {};
         response_ = {};
@@ -153,7 +160,7 @@ public:
 
     void on_receive(std::span<const std::uint8_t> in, time_point now) noexcept {
         if (in.empty()) return;
-        if (cfg_.rtu) {
+        if (rtu()) {
             // An answer before our request's computed wire end: the link is faster than the
             // serial format says (a pty, a TCP bridge), so the request's hold ends now.
             if (state_ == state::awaiting && now < tx_end_ && echo_pos_ == tx_size_)
@@ -195,7 +202,7 @@ public:
             if (in.empty()) return;
         }
         heard_ = true;
-        cfg_.rtu ? feed_rtu(in) : feed_tcp(in);
+        rtu() ? feed_rtu(in) : feed_tcp(in);
     }
 
     void on_transport_error(std::error_code ec) noexcept {
@@ -230,22 +237,29 @@ public:
     const client_config& config() const noexcept { return cfg_; }
 
 private:
+    constexpr bool rtu() const noexcept {
+        if constexpr (Link == client_link::any)
+            return cfg_.rtu;
+        else
+            return Link == client_link::rtu;
+    }
+
     enum class state : std::uint8_t { idle, pending_send, awaiting, no_reply, done };
 
     session_action send(time_point now) noexcept {
         if (++attempts_ > 1) ++stats_.resends;
-        if (!cfg_.rtu) {
+        if (!rtu()) {
             ++transaction_;
             tx_size_ = *encode_tcp(transaction_, unit_, pdu(), tx_);
         }
-        tx_end_ = cfg_.rtu ? now + cfg_.format.chars_time(tx_size_) : now;
+        tx_end_ = rtu() ? now + cfg_.format.chars_time(tx_size_) : now;
         last_rx_ = tx_end_;
         rtu_.reset();
         tcp_.reset();
         heard_ = false;
         decode_error_ = {};
-        echo_pos_ = cfg_.rtu && cfg_.echo_suppression ? 0 : tx_size_;
-        if (cfg_.rtu) hold(tx_end_, cfg_.inter_frame_gap);
+        echo_pos_ = rtu() && cfg_.echo_suppression ? 0 : tx_size_;
+        if (rtu()) hold(tx_end_, cfg_.inter_frame_gap);
         if (no_reply_) {
             ++stats_.broadcasts;
             hold(tx_end_, cfg_.turnaround);
@@ -258,7 +272,7 @@ private:
 
     time_point deadline_now() const noexcept {
         const time_point base = tx_end_ + cfg_.response_timeout;
-        if (!cfg_.rtu || (!decode_error_ && !rtu_.in_frame())) return base;
+        if (!rtu() || (!decode_error_ && !rtu_.in_frame())) return base;
         // Bytes are arriving: they may go on until the wire time of a whole ADU past base.
         const time_point late = base + cfg_.format.chars_time(max_rtu_adu);
         if (decode_error_) {
@@ -274,9 +288,9 @@ private:
 
     void expire(time_point deadline) noexcept {
         const duration ibt = cfg_.inter_byte_timeout;
-        const bool gap = cfg_.rtu && !decode_error_ && rtu_.in_frame() && ibt > duration::zero() &&
+        const bool gap = rtu() && !decode_error_ && rtu_.in_frame() && ibt > duration::zero() &&
                          deadline == last_rx_ + cfg_.format.char_time() + ibt;
-        if (cfg_.rtu && (decode_error_ || rtu_.in_frame())) {
+        if (rtu() && (decode_error_ || rtu_.in_frame())) {
             // The silence ends what was received: a frame in it still counts.
             rtu_decoder::step s;
             do {
@@ -396,6 +410,9 @@ private:
     bool heard_ = false; // bytes other than our echo since the request
 };
 
+using client = basic_client<>;
+
 static_assert(master_session<client>);
+static_assert(master_session<basic_client<client_link::rtu>>);
 
 } // namespace ferrule::modbus
