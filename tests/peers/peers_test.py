@@ -104,11 +104,23 @@ def rtu(pairing, server_cmd, client_cmd, expect_min):
         line.close()
 
 
+def wait_listening(port):
+    """pymodbus says 'ready' before its server has bound the port: wait until it accepts."""
+    for _ in range(250):
+        try:
+            socket.create_connection(("127.0.0.1", int(port)), timeout=1).close()
+            return
+        except OSError:
+            time.sleep(0.02)
+    raise RuntimeError(f"nothing listens on port {port}")
+
+
 def tcp(pairing, server_cmd, client_cmd, expect_min):
     port = str(free_port())
     srv = None
     try:
         srv = server([a.replace("{port}", port) for a in server_cmd])
+        wait_listening(port)
         client(pairing, [a.replace("{port}", port) for a in client_cmd], expect_min)
     except RuntimeError as e:
         fail(pairing, str(e))

@@ -41,7 +41,7 @@ def serve_tcp(port):
         zero_mode=True)
     identity = ModbusDeviceIdentification(info_name={
         "VendorName": "ferrule", "ProductCode": "FR-PEER", "MajorMinorRevision": "1.0"})
-    print("ready", flush=True)
+    print("ready", flush=True)  # peers_test.py waits until the port accepts connections
     StartTcpServer(context=ModbusServerContext(slaves=store, single=True), identity=identity,
                    address=("127.0.0.1", port))
 
