@@ -20,6 +20,7 @@
 #include <asio/write.hpp>
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <deque>
@@ -42,12 +43,13 @@ struct modbus_tcp_server_options {
     duration processing_time{};
 };
 
+// Counted on the server's thread, readable from any other.
 struct modbus_tcp_server_stats {
-    std::uint64_t accepted = 0;
-    std::uint64_t refused = 0;     // over max_connections
-    std::uint64_t idle_closed = 0; // closed after idle_timeout
-    std::uint64_t closed = 0;      // by the client, or after an I/O error
-    std::uint64_t replies = 0;
+    std::atomic<std::uint64_t> accepted{0};
+    std::atomic<std::uint64_t> refused{0};     // over max_connections
+    std::atomic<std::uint64_t> idle_closed{0}; // closed after idle_timeout
+    std::atomic<std::uint64_t> closed{0};      // by the client, or after an I/O error
+    std::atomic<std::uint64_t> replies{0};
 };
 
 template <modbus::data_model M>
@@ -180,8 +182,9 @@ private:
 
         void end(bool idle) {
             if (!socket_.is_open()) return;
-            shut();
+            // Counted before the close that the client sees.
             ++(idle ? owner_.stats_.idle_closed : owner_.stats_.closed);
+            shut();
             owner_.forget(this);
         }
 
@@ -222,7 +225,7 @@ private:
     ::asio::ip::tcp::acceptor acceptor_;
     M& model_;
     modbus_tcp_server_options options_;
-    modbus_tcp_server_stats stats_{};
+    modbus_tcp_server_stats stats_;
     std::list<std::shared_ptr<connection>> connections_;
 };
 
