@@ -10,7 +10,9 @@
 #include <array>
 #include <chrono>
 #include <thread>
+#include <vector>
 
+#include "ferrule/asio/async_driver.hpp"
 #include "ferrule/asio/modbus_tcp_server.hpp"
 #include "ferrule/asio/serial_stream.hpp"
 #include "ferrule/modbus/access.hpp"
@@ -116,4 +118,44 @@ TEST_CASE("modbus tcp server closes an idle connection", "[asio][modbus]") {
     CHECK(s.server.stats().idle_closed == 1);
     tcp_client again(s.server.port()); // a new connection is served as usual
     CHECK_FALSE(again.read(regs));
+}
+
+TEST_CASE("modbus client: many callers share one connection through async_driver, in turn",
+          "[asio][modbus]") {
+    running_server s;
+    asio::io_context ctx;
+    asio::ip::tcp::socket socket(ctx);
+    socket.connect({asio::ip::make_address("127.0.0.1"), s.server.port()});
+    mb::client_config cfg;
+    cfg.rtu = false;
+    mb::client c(cfg);
+    host::async_driver<asio::ip::tcp::socket, mb::client> drv(socket, c);
+
+    // Each caller reads its own register; an interleaved request would get another caller's
+    // value or a stale transaction id.
+    constexpr int callers = 16;
+    std::vector<std::pair<std::error_code, std::uint16_t>> results(callers);
+    const auto read_one = [&](int i) {
+        mb::request r;
+        r.function = mb::function::read_holding_registers;
+        r.address = static_cast<std::uint16_t>(i % 16);
+        r.quantity = 1;
+        drv.async_transact([r](mb::client& cl) { return cl.start(1, r); },
+                           [](mb::client& cl) { return mb::register_at(cl.response().data, 0); },
+                           [&results, i](std::error_code e, std::uint16_t v) {
+                               results[static_cast<std::size_t>(i)] = {e, v};
+                           });
+    };
+    std::vector<std::thread> threads;
+    for (int i = 0; i < callers / 2; ++i) threads.emplace_back([&, i] { read_one(i); });
+    for (int i = callers / 2; i < callers; ++i) read_one(i);
+    for (auto& t : threads) t.join();
+    ctx.run();
+
+    for (int i = 0; i < callers; ++i) {
+        INFO("caller " << i);
+        CHECK_FALSE(results[static_cast<std::size_t>(i)].first);
+        CHECK(results[static_cast<std::size_t>(i)].second == 100 + i % 16);
+    }
+    CHECK(c.stats().succeeded == callers);
 }
