@@ -103,19 +103,7 @@ std::optional<std::vector<std::uint16_t>> parse_value(value_type t, const std::s
 }
 
 std::string function_name(std::uint8_t fc) {
-    switch (static_cast<mb::function>(fc)) {
-    case mb::function::read_coils: return "read coils";
-    case mb::function::read_discrete_inputs: return "read discrete inputs";
-    case mb::function::read_holding_registers: return "read holding registers";
-    case mb::function::read_input_registers: return "read input registers";
-    case mb::function::write_single_coil: return "write single coil";
-    case mb::function::write_single_register: return "write single register";
-    case mb::function::diagnostics: return "diagnostics";
-    case mb::function::write_multiple_coils: return "write multiple coils";
-    case mb::function::write_multiple_registers: return "write multiple registers";
-    case mb::function::read_write_multiple_registers: return "read/write multiple registers";
-    case mb::function::encapsulated_interface: return "read device identification";
-    }
+    if (const char* n = mb::name(static_cast<mb::function>(fc))) return n;
     return fmt::format("function 0x{:02X}", fc);
 }
 
@@ -126,10 +114,7 @@ std::string error_text(std::error_code ec) {
 }
 
 std::string object_name(std::uint8_t id) {
-    static constexpr std::array<const char*, 7> names{
-        "VendorName",  "ProductCode", "MajorMinorRevision", "VendorUrl",
-        "ProductName", "ModelName",   "UserApplicationName"};
-    if (id < names.size()) return names[id];
+    if (const char* n = mb::device_id_object_name(id)) return n;
     return fmt::format("object 0x{:02X}", id);
 }
 

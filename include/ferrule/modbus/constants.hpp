@@ -33,6 +33,33 @@ inline constexpr std::uint8_t exception_flag = 0x80;
 // MEI type of Read Device Identification (AP §6.21).
 inline constexpr std::uint8_t mei_read_device_id = 14;
 
+// The function's name (AP §6), for traces and tools; nullptr for a code outside the set.
+// FC 43 is named by MEI type 14, the only one ferrule speaks.
+constexpr const char* name(function f) noexcept {
+    switch (f) {
+    case function::read_coils: return "read coils";
+    case function::read_discrete_inputs: return "read discrete inputs";
+    case function::read_holding_registers: return "read holding registers";
+    case function::read_input_registers: return "read input registers";
+    case function::write_single_coil: return "write single coil";
+    case function::write_single_register: return "write single register";
+    case function::diagnostics: return "diagnostics";
+    case function::write_multiple_coils: return "write multiple coils";
+    case function::write_multiple_registers: return "write multiple registers";
+    case function::read_write_multiple_registers: return "read/write multiple registers";
+    case function::encapsulated_interface: return "read device identification";
+    }
+    return nullptr;
+}
+
+// The names of the device identification objects 0x00-0x06 (AP §6.21); nullptr above.
+constexpr const char* device_id_object_name(std::uint8_t id) noexcept {
+    constexpr const char* names[] = {"VendorName",         "ProductCode", "MajorMinorRevision",
+                                     "VendorUrl",          "ProductName", "ModelName",
+                                     "UserApplicationName"};
+    return id < 7 ? names[id] : nullptr;
+}
+
 // AP §7, plus 07 as libmodbus lists it.
 enum class exception_code : std::uint8_t {
     illegal_function = 1,
