@@ -2,12 +2,14 @@
 // protocol's simulated bus (movilink::sim::bus, lecom::sim::bus, modbus::sim::bus) shares:
 //
 //   * every station hears the master's bytes with their wire timing (on_receive(bytes, end))
-//   * a station whose wake_at() has come is asked next(now); a reply it hands out goes on the
-//     line then; the stations do not hear each other's replies
+//   * a station whose wake_at() has come is asked next(now) until it has nothing more to
+//     send (a sensor may owe several lines); what it hands out goes on the line then; the
+//     stations do not hear each other's replies
 //   * fault knobs act on the next k replies, whichever station sends them (reply_faults)
 //
-// A Station has on_receive(bytes, end), next(now) -> session_action, wake_at() and
-// advance(now) (runs its device model up to `now`). Each protocol's bus adds its own add().
+// A Station has on_receive(bytes, end), next(now) -> session_action and wake_at(); for
+// advance(), also advance(now) (runs its device model up to `now`). Each protocol's bus adds
+// its own add().
 #pragma once
 
 #include <algorithm>
@@ -48,8 +50,11 @@ public:
     void on_wake(mock_serial& line, time_point now) override {
         for (auto& st : active()) {
             if (st.wake_at() > now) continue;
-            const session_action a = st.next(now);
-            if (a.what == session_action::kind::send) deliver(line, a.bytes, now);
+            for (;;) {
+                const session_action a = st.next(now);
+                if (a.what != session_action::kind::send) break;
+                deliver(line, a.bytes, now);
+            }
         }
     }
 
@@ -65,7 +70,7 @@ private:
     std::span<Station> active() noexcept { return {stations_.data(), size_}; }
     std::span<const Station> active() const noexcept { return {stations_.data(), size_}; }
 
-    std::array<Station, N> stations_{};
+    std::array<Station, N> stations_; // each default-constructed
     std::size_t size_ = 0;
 };
 
