@@ -7,6 +7,7 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "ferrule/asio/pty_server.hpp"
+#include "ferrule/asio/serve.hpp"
 #include "ferrule/dimetix/access.hpp"
 #include "ferrule/dimetix/sim_sensor.hpp"
 #include "ferrule/lecom/access.hpp"
@@ -19,7 +20,6 @@
 #include "ferrule/movilink/sim_station.hpp"
 #include "lecom_text.hpp"
 #include "modbus_text.hpp"
-#include "poll_loop.hpp"
 
 namespace ferrule::cli {
 namespace {
@@ -158,7 +158,7 @@ int lecom_part(const demo_options& d) {
                    std::chrono::duration<double, std::milli>(p.last_cycle_time()).count());
     };
     const auto until = line.now() + 1200ms;
-    if (auto ec = run_poller(line, p, 200ms, [&] {
+    if (auto ec = host::serve_while(line, p, 200ms, [&] {
             if (p.cycles() > 0) show();
             return line.now() < until;
         }))
@@ -168,7 +168,7 @@ int lecom_part(const demo_options& d) {
     if (auto ec = lc::write(line, m, lc::broadcast_address, lc::code(40), *lc::decimal(0)))
         return fail("broadcast", ec);
     const auto stopped = p.cycles() + 2;
-    if (auto ec = run_poller(line, p, 50ms, [&] { return p.cycles() < stopped; }))
+    if (auto ec = host::serve_while(line, p, 50ms, [&] { return p.cycles() < stopped; }))
         return fail("poll", ec);
     show();
 

@@ -7,11 +7,11 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "ferrule/asio/serve.hpp"
 #include "ferrule/lecom/access.hpp"
 #include "ferrule/lecom/error.hpp"
 #include "ferrule/lecom/poller.hpp"
 #include "lecom_text.hpp"
-#include "poll_loop.hpp"
 
 namespace ferrule::cli {
 namespace {
@@ -236,11 +236,12 @@ int cmd_poll(context& c) {
         std::fflush(stdout);
         printed = true;
     };
-    const auto ec = run_poller(c.port->stream(), p, std::chrono::milliseconds(c.o.refresh_ms), [&] {
-        if (c.o.cycles != 0 && p.cycles() >= c.o.cycles) return false;
-        if (p.completed() > 0) show();
-        return true;
-    });
+    const auto ec =
+        host::serve_while(c.port->stream(), p, std::chrono::milliseconds(c.o.refresh_ms), [&] {
+            if (c.o.cycles != 0 && p.cycles() >= c.o.cycles) return false;
+            if (p.completed() > 0) show();
+            return true;
+        });
     if (ec) return fail(c, "poll", ec);
     show();
     for (unsigned d : drives)
