@@ -5,6 +5,7 @@
 
 #include <asio/io_context.hpp>
 #include <asio/ip/tcp.hpp>
+#include <asio/read.hpp>
 #include <asio/write.hpp>
 
 #include <array>
@@ -90,6 +91,38 @@ TEST_CASE("modbus tcp server answers several clients while one stalls in a half 
         REQUIRE_FALSE(b.read(regs));
     }
     CHECK(s.server.stats().replies == 40);
+}
+
+// Modbus TCP lets a client send requests without waiting for each reply (Implementation
+// Guide §3.1.2): 200 requests in one write, 2 400 bytes, come back as 200 replies in order.
+TEST_CASE("modbus tcp server answers every request of a client that sends many at once",
+          "[asio][modbus]") {
+    const auto processing = GENERATE(0ms, 1ms);
+    host::modbus_tcp_server_options o;
+    o.processing_time = processing;
+    running_server s(o);
+    asio::io_context ctx;
+    asio::ip::tcp::socket socket(ctx);
+    socket.connect({asio::ip::make_address("127.0.0.1"), s.server.port()});
+    constexpr int requests = 200;
+    std::vector<std::uint8_t> out;
+    for (int t = 0; t < requests; ++t) {
+        // MBAP: transaction t, protocol 0, length 6, unit 1; FC 3, register t % 16, count 1
+        const std::array<std::uint8_t, 12> r{0, static_cast<std::uint8_t>(t),      0, 0, 0, 6, 1, 3,
+                                             0, static_cast<std::uint8_t>(t % 16), 0, 1};
+        out.insert(out.end(), r.begin(), r.end());
+    }
+    asio::write(socket, asio::buffer(out));
+    std::vector<std::uint8_t> in(requests * 11);
+    asio::read(socket, asio::buffer(in));
+    for (int t = 0; t < requests; ++t) {
+        const std::uint8_t* reply = in.data() + t * 11;
+        INFO("reply " << t);
+        REQUIRE(reply[1] == t);
+        REQUIRE(reply[5] == 5);
+        REQUIRE(reply[7] == 3);
+        REQUIRE((reply[9] << 8 | reply[10]) == 100 + t % 16);
+    }
 }
 
 TEST_CASE("modbus tcp server closes connections beyond its limit", "[asio][modbus]") {

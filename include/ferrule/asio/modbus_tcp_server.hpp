@@ -10,7 +10,8 @@
 //   * a connection that sends nothing for `idle_timeout` is closed (§4.2.1: the server may
 //     close connections it considers idle)
 //   * replies go out in the order of the requests, `processing_time` after each request
-//     (0: at once), written with one write per reply
+//     (0: at once); a reply is sent straight from the session's buffer, and only the part
+//     the socket does not take at once is copied to wait for it
 //
 // One io_context thread runs the server; the model is only touched from it.
 #pragma once
@@ -19,11 +20,11 @@
 #include <asio/steady_timer.hpp>
 #include <asio/write.hpp>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
-#include <deque>
 #include <list>
 #include <memory>
 #include <system_error>
@@ -100,6 +101,9 @@ private:
               session_(config(owner.options_), modbus::model_ref<M>(owner.model_)) {}
 
         void start() {
+            std::error_code ec;
+            socket_.non_blocking(true, ec);
+            socket_.set_option(::asio::ip::tcp::no_delay(true), ec);
             last_activity_ = steady_now();
             arm_idle();
             read();
@@ -121,6 +125,7 @@ private:
         }
 
         void read() {
+            reading_ = true;
             socket_.async_read_some(::asio::buffer(rx_), [self = this->shared_from_this()](
                                                              std::error_code ec, std::size_t n) {
                 self->on_read(ec, n);
@@ -128,11 +133,27 @@ private:
         }
 
         void on_read(std::error_code ec, std::size_t n) {
+            reading_ = false;
             if (ec) return end(false);
             last_activity_ = steady_now();
-            session_.on_receive({rx_.data(), n}, last_activity_);
-            pump();
-            read();
+            rx_pos_ = 0;
+            rx_size_ = n;
+            feed();
+        }
+
+        // Gives the session what it can take: a chunk no larger than it holds behind a
+        // request, and only while no reply is waiting, so that a client sending many requests
+        // at once (guide §3.1.2 lets it) loses none. Reads on when all is fed, unless replies
+        // back up.
+        void feed() {
+            while (rx_pos_ < rx_size_ && session_.wake_at() == never) {
+                const std::size_t n = std::min(rx_size_ - rx_pos_, session_type::held_capacity);
+                session_.on_receive({rx_.data() + rx_pos_, n}, last_activity_);
+                rx_pos_ += n;
+                pump();
+                if (!socket_.is_open()) return;
+            }
+            if (rx_pos_ == rx_size_ && !reading_ && !backlogged() && socket_.is_open()) read();
         }
 
         // Hands out every reply that is due; sleeps until the next one.
@@ -141,9 +162,8 @@ private:
                 const time_point now = steady_now();
                 const session_action a = session_.next(now);
                 if (a.what == session_action::kind::send) {
-                    out_.emplace_back(a.bytes.begin(), a.bytes.end());
                     ++owner_.stats_.replies;
-                    if (out_.size() == 1) write();
+                    send(a.bytes);
                     continue;
                 }
                 if (a.what == session_action::kind::wait && a.deadline != never) {
@@ -151,21 +171,45 @@ private:
                         std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                             a.deadline.time_since_epoch())));
                     reply_timer_.async_wait([self = this->shared_from_this()](std::error_code e) {
-                        if (!e) self->pump();
+                        if (e) return;
+                        self->pump();
+                        if (self->socket_.is_open()) self->feed();
                     });
                 }
                 return;
             }
         }
 
-        void write() {
-            ::asio::async_write(socket_, ::asio::buffer(out_.front()),
+        // The socket is non-blocking: what it does not take now is written from `writing_`;
+        // replies due meanwhile queue in `queued_`, so that the byte order stays. A client
+        // that sends requests without reading the replies is not read from while
+        // `backlog_limit` bytes of replies wait for it (see feed()).
+        void send(std::span<const std::uint8_t> bytes) {
+            if (!writing_.empty()) {
+                queued_.insert(queued_.end(), bytes.begin(), bytes.end());
+                return;
+            }
+            std::error_code ec;
+            const std::size_t n = socket_.send(::asio::buffer(bytes.data(), bytes.size()), 0, ec);
+            if (ec && ec != ::asio::error::would_block) return end(false);
+            bytes = bytes.subspan(ec ? 0 : n);
+            if (bytes.empty()) return;
+            writing_.assign(bytes.begin(), bytes.end());
+            flush();
+        }
+
+        void flush() {
+            ::asio::async_write(socket_, ::asio::buffer(writing_),
                                 [self = this->shared_from_this()](std::error_code ec, std::size_t) {
                                     if (ec) return self->end(false);
-                                    self->out_.pop_front();
-                                    if (!self->out_.empty()) self->write();
+                                    self->writing_.clear();
+                                    std::swap(self->writing_, self->queued_);
+                                    if (!self->writing_.empty()) return self->flush();
+                                    self->feed();
                                 });
         }
+
+        bool backlogged() const noexcept { return queued_.size() >= backlog_limit; }
 
         void arm_idle() {
             if (owner_.options_.idle_timeout == duration::zero()) return;
@@ -194,7 +238,12 @@ private:
         ::asio::steady_timer idle_timer_;
         session_type session_;
         std::array<std::uint8_t, 512> rx_{};
-        std::deque<std::vector<std::uint8_t>> out_;
+        std::size_t rx_pos_ = 0;
+        std::size_t rx_size_ = 0;
+        bool reading_ = false;
+        static constexpr std::size_t backlog_limit = 16 * 1024;
+        std::vector<std::uint8_t> writing_;
+        std::vector<std::uint8_t> queued_;
         time_point last_activity_{};
     };
 
