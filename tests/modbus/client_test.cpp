@@ -591,3 +591,24 @@ TEST_CASE("modbus client refuses a second start while busy and reports transport
     r.quantity = 0;
     CHECK(c.start(1, r) == errc::invalid_argument);
 }
+
+// A client built for FC 3 only: it refuses FC 6 before anything goes on the line, and reads
+// as the full client does; a response of a function it does not know is garbage to it.
+TEST_CASE("modbus client with a function set: others refused, its own served", "[modbus][client]") {
+    using fc3_client = basic_client<client_link::rtu, functions<function::read_holding_registers>>;
+    const bytes fc6_echo = adu(1, {0x06, 0, 0, 0, 1});
+    const std::array<script_step, 2> steps{answer(read1, value42, 5ms),
+                                           answer(read1, fc6_echo, 5ms)};
+    ferrule::script_peer peer(steps);
+    mock_serial line(f9600, &peer);
+    client_config cfg = rtu_config(f9600);
+    cfg.response_timeout = 100ms;
+    fc3_client c(cfg);
+    CHECK(write_register(line, c, 1, 0, 7) == errc::invalid_argument);
+    CHECK(line.writes() == 0);
+    std::array<std::uint16_t, 1> reg{};
+    REQUIRE_FALSE(read_holding_registers(line, c, 1, 0, reg));
+    CHECK(reg[0] == 42);
+    CHECK(read_holding_registers(line, c, 1, 0, reg) == errc::malformed);
+    CHECK(c.stats().malformed == 1);
+}

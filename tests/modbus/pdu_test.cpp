@@ -396,3 +396,46 @@ TEST_CASE("modbus expected lengths need just enough bytes", "[modbus][pdu]") {
     big.push_back(0x10);
     CHECK(expected_response_length(big) == no_frame);
 }
+
+// A client built for FC 3 and 6 (firmware that names its functions) refuses the others
+// where the full set takes them, and frames no response of theirs.
+TEST_CASE("modbus function sets: only the functions named are encoded, parsed and framed",
+          "[modbus][pdu]") {
+    constexpr auto fs =
+        functions<function::read_holding_registers, function::write_single_register>;
+    STATIC_REQUIRE(fs.has(function::read_holding_registers));
+    STATIC_REQUIRE(fs.has(std::uint8_t{6}));
+    STATIC_REQUIRE_FALSE(fs.has(function::read_coils));
+    STATIC_REQUIRE_FALSE(fs.has(std::uint8_t{200}));
+    STATIC_REQUIRE(all_functions.has(function::encapsulated_interface));
+
+    std::array<std::uint8_t, max_pdu> out{};
+    request read;
+    read.quantity = 2;
+    std::array<std::uint8_t, max_pdu> full{};
+    REQUIRE(*encode_request(read, full) == 5u);
+    REQUIRE(*encode_request<fs>(read, out) == 5u);
+    CHECK(out == full);
+    request coils;
+    coils.function = function::read_coils;
+    coils.quantity = 8;
+    CHECK(encode_request(coils, out));
+    CHECK(encode_request<fs>(coils, out).error() == errc::invalid_argument);
+
+    const bytes two{0x03, 0x04, 0x00, 0x01, 0x00, 0x02};
+    REQUIRE(parse_response<fs>(read, two));
+    CHECK(parse_response<fs>(read, two)->data.size() == 4);
+    CHECK(parse_response<fs>(read, bytes{0x83, 0x02}).error() ==
+          exception_code::illegal_data_address);
+    CHECK(parse_response(coils, bytes{0x01, 0x01, 0x55}));
+    CHECK(parse_response<fs>(coils, bytes{0x01, 0x01, 0x55}).error() == errc::invalid_argument);
+
+    CHECK(expected_response_length<fs>(bytes{0x03, 0x04}) == 6);
+    CHECK(expected_response_length<fs>(bytes{0x06}) == 5);
+    CHECK(expected_response_length<fs>(bytes{0x83}) == 2);
+    CHECK(expected_response_length(bytes{0x01, 0x01}) == 3);
+    CHECK(expected_response_length<fs>(bytes{0x01, 0x01}) == no_frame);
+    CHECK(expected_response_length(bytes{0x07}) == 2);
+    CHECK(expected_response_length<fs>(bytes{0x07}) == no_frame);
+    CHECK(expected_response_length<fs>(bytes{0x2B, 0x0E}) == no_frame);
+}

@@ -88,7 +88,9 @@ struct client_stats {
 // compile time, so firmware for one link does not carry the other's code.
 enum class client_link : std::uint8_t { any, rtu, tcp };
 
-template <client_link Link = client_link::any>
+// Fs: the function codes the client can send (function_set); start() refuses others with
+// errc::invalid_argument, and their code is not compiled in.
+template <client_link Link = client_link::any, function_set Fs = all_functions>
 class basic_client {
 public:
     explicit basic_client(const client_config& cfg = {}) noexcept : cfg_(cfg) {
@@ -106,22 +108,21 @@ public:
             r.function != function::write_multiple_coils &&
             r.function != function::write_multiple_registers)
             return errc::invalid_argument;
-        const auto n = encode_request(r, pdu_);
+        const auto n = encode_request<Fs>(r, pdu_);
         if (!n) return n.error();
         pdu_size_ = *n;
         sent_ = r;
         // The request's data lives on in its PDU; the caller's may not.
-        switch (r.function) {
-        case function::diagnostics: sent_.data = {pdu_.data() + 3, 2}; break;
-        case function::write_multiple_coils:
-        case function::write_multiple_registers:
+        using detail::one_of;
+        if (one_of<Fs, function::diagnostics>(r.function))
+            sent_.data = {pdu_.data() + 3, 2};
+        else if (one_of<Fs, function::write_multiple_coils, function::write_multiple_registers>(
+                     r.function))
             sent_.data = {pdu_.data() + 6, r.data.size()};
-            break;
-        case function::read_write_multiple_registers:
+        else if (one_of<Fs, function::read_write_multiple_registers>(r.function))
             sent_.data = {pdu_.data() + 10, r.data.size()};
-            break;
-        default: sent_.data = {}; break;
-        }
+        else
+            sent_.data = {};
         unit_ = unit;
         no_reply_ =
             broadcast || (r.function == function::diagnostics &&
@@ -245,6 +246,7 @@ private:
     }
 
     enum class state : std::uint8_t { idle, pending_send, awaiting, no_reply, done };
+    using decoder = basic_rtu_decoder<Fs, false>; // responses of Fs only
 
     session_action send(time_point now) noexcept {
         if (++attempts_ > 1) ++stats_.resends;
@@ -292,15 +294,15 @@ private:
                          deadline == last_rx_ + cfg_.format.char_time() + ibt;
         if (rtu() && (decode_error_ || rtu_.in_frame())) {
             // The silence ends what was received: a frame in it still counts.
-            rtu_decoder::step s;
+            typename decoder::step s;
             do {
                 s = rtu_.finish();
-                if (s.what == rtu_decoder::status::error && !decode_error_) decode_error_ = s.ec;
-                if (s.what == rtu_decoder::status::frame) {
+                if (s.what == decoder::status::error && !decode_error_) decode_error_ = s.ec;
+                if (s.what == decoder::status::frame) {
                     evaluate(rtu_.address(), rtu_.pdu());
                     if (state_ != state::awaiting) return;
                 }
-            } while (s.what != rtu_decoder::status::need_more);
+            } while (s.what != decoder::status::need_more);
         }
         if (gap)
             fail(errc::frame_gap, true);
@@ -311,13 +313,13 @@ private:
     }
 
     void feed_rtu(std::span<const std::uint8_t> in) noexcept {
-        rtu_decoder::step s;
+        typename decoder::step s;
         do {
             s = rtu_.feed(in);
             in = in.subspan(s.consumed);
-            if (s.what == rtu_decoder::status::error && !decode_error_) decode_error_ = s.ec;
-            if (s.what == rtu_decoder::status::frame) evaluate(rtu_.address(), rtu_.pdu());
-        } while (s.what != rtu_decoder::status::need_more && state_ == state::awaiting);
+            if (s.what == decoder::status::error && !decode_error_) decode_error_ = s.ec;
+            if (s.what == decoder::status::frame) evaluate(rtu_.address(), rtu_.pdu());
+        } while (s.what != decoder::status::need_more && state_ == state::awaiting);
         stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
     }
 
@@ -344,7 +346,7 @@ private:
         }
         // The decoder's buffer is reused by the next feed(): keep the PDU.
         for (std::size_t i = 0; i < pdu.size(); ++i) rx_[i] = pdu[i];
-        const auto parsed = parse_response(sent_, {rx_.data(), pdu.size()});
+        const auto parsed = parse_response<Fs>(sent_, {rx_.data(), pdu.size()});
         if (!parsed) {
             const bool exception = parsed.error().category() == device_category();
             fail(parsed.error(), !exception);
@@ -395,7 +397,7 @@ private:
     std::array<std::uint8_t, max_tcp_adu> tx_{};
     std::size_t tx_size_ = 0;
     std::array<std::uint8_t, max_pdu> rx_{};
-    rtu_decoder rtu_{rtu_decoder::accept::responses};
+    decoder rtu_{};
     tcp_decoder tcp_{};
     time_point send_after_ = time_point::min();
     time_point tx_end_{};

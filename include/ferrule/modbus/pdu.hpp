@@ -80,6 +80,31 @@ inline constexpr std::uint16_t coil_off = 0x0000;
 // expected_*_length(): these bytes cannot start a PDU that can be framed by its length.
 inline constexpr std::size_t no_frame = static_cast<std::size_t>(-1);
 
+// The function codes a client is built for. Firmware that uses few of them names them
+// (functions<function::read_holding_registers, function::write_single_register>) and
+// carries the code of no other: encode_request(), parse_response() and the response
+// framing refuse the rest as they refuse an unknown function code.
+struct function_set {
+    std::uint64_t mask = 0; // bit n: function code n
+    constexpr bool has(function f) const noexcept {
+        return (mask >> static_cast<unsigned>(f) & 1u) != 0;
+    }
+    constexpr bool has(std::uint8_t code) const noexcept {
+        return code < 64 && (mask >> code & 1u) != 0;
+    }
+};
+
+template <function... F>
+inline constexpr function_set functions{
+    ((std::uint64_t{1} << static_cast<unsigned>(F)) | ... | 0u)};
+
+inline constexpr function_set all_functions =
+    functions<function::read_coils, function::read_discrete_inputs,
+              function::read_holding_registers, function::read_input_registers,
+              function::write_single_coil, function::write_single_register, function::diagnostics,
+              function::write_multiple_coils, function::write_multiple_registers,
+              function::read_write_multiple_registers, function::encapsulated_interface>;
+
 constexpr std::size_t packed_size(std::size_t bits) noexcept {
     return (bits + 7) / 8;
 }
@@ -94,42 +119,45 @@ constexpr bool in(std::uint16_t v, std::uint16_t lo, std::uint16_t hi) noexcept 
 constexpr std::size_t limited(std::size_t n) noexcept {
     return n > max_pdu ? no_frame : n;
 }
+// `f` is one of F… and in `Fs`. A test whose functions are all left out of Fs is false at
+// compile time, so the code under it is not compiled in.
+template <function_set Fs, function... F>
+constexpr bool one_of(function f) noexcept {
+    return ((Fs.has(F) && f == F) || ...);
+}
 } // namespace detail
 
 // Writes the request PDU to `out`; invalid_argument for what the spec does not allow
 // (quantities beyond AP §6's limits, address + quantity beyond 65536, a data size that does
-// not match the quantity, an FC5 value other than FF00 / 0000, FC8 data other than 2 bytes).
-inline result<std::size_t> encode_request(const request& r, std::span<std::uint8_t> out) noexcept {
+// not match the quantity, an FC5 value other than FF00 / 0000, FC8 data other than 2 bytes)
+// and for a function not in `Fs`.
+template <function_set Fs = all_functions>
+result<std::size_t> encode_request(const request& r, std::span<std::uint8_t> out) noexcept {
+    using detail::one_of;
     std::array<std::uint8_t, max_pdu> b{};
     std::size_t n = 5;
-    b[0] = static_cast<std::uint8_t>(r.function);
+    const function f = r.function;
+    b[0] = static_cast<std::uint8_t>(f);
     store_be16(&b[1], r.address);
     store_be16(&b[3], r.quantity);
-    switch (r.function) {
-    case function::read_coils:
-    case function::read_discrete_inputs:
+    if (one_of<Fs, function::read_coils, function::read_discrete_inputs>(f)) {
         if (!detail::in(r.quantity, 1, max_read_bits) || !detail::fits(r.address, r.quantity))
             return errc::invalid_argument;
-        break;
-    case function::read_holding_registers:
-    case function::read_input_registers:
+    } else if (one_of<Fs, function::read_holding_registers, function::read_input_registers>(f)) {
         if (!detail::in(r.quantity, 1, max_read_registers) || !detail::fits(r.address, r.quantity))
             return errc::invalid_argument;
-        break;
-    case function::write_single_coil:
+    } else if (one_of<Fs, function::write_single_coil>(f)) {
         if (r.value != coil_on && r.value != coil_off) return errc::invalid_argument;
         store_be16(&b[3], r.value);
-        break;
-    case function::write_single_register: store_be16(&b[3], r.value); break;
-    case function::diagnostics:
+    } else if (one_of<Fs, function::write_single_register>(f)) {
+        store_be16(&b[3], r.value);
+    } else if (one_of<Fs, function::diagnostics>(f)) {
         if (r.data.size() != 2) return errc::invalid_argument;
         store_be16(&b[1], r.value);
         b[3] = r.data[0];
         b[4] = r.data[1];
-        break;
-    case function::write_multiple_coils:
-    case function::write_multiple_registers: {
-        const bool coils = r.function == function::write_multiple_coils;
+    } else if (one_of<Fs, function::write_multiple_coils, function::write_multiple_registers>(f)) {
+        const bool coils = f == function::write_multiple_coils;
         const std::size_t bytes = coils ? packed_size(r.quantity) : 2u * r.quantity;
         if (!detail::in(r.quantity, 1, coils ? max_write_bits : max_write_registers) ||
             !detail::fits(r.address, r.quantity) || r.data.size() != bytes)
@@ -137,9 +165,7 @@ inline result<std::size_t> encode_request(const request& r, std::span<std::uint8
         b[5] = static_cast<std::uint8_t>(bytes);
         for (std::size_t i = 0; i < bytes; ++i) b[6 + i] = r.data[i];
         n = 6 + bytes;
-        break;
-    }
-    case function::read_write_multiple_registers:
+    } else if (one_of<Fs, function::read_write_multiple_registers>(f)) {
         if (!detail::in(r.quantity, 1, max_read_registers) ||
             !detail::in(r.write_quantity, 1, max_rw_write_registers) ||
             !detail::fits(r.address, r.quantity) ||
@@ -151,16 +177,15 @@ inline result<std::size_t> encode_request(const request& r, std::span<std::uint8
         b[9] = static_cast<std::uint8_t>(r.data.size());
         for (std::size_t i = 0; i < r.data.size(); ++i) b[10 + i] = r.data[i];
         n = 10 + r.data.size();
-        break;
-    case function::encapsulated_interface:
+    } else if (one_of<Fs, function::encapsulated_interface>(f)) {
         if (r.mei_type != mei_read_device_id || !detail::in(r.read_device_id_code, 1, 4))
             return errc::invalid_argument;
         b[1] = r.mei_type;
         b[2] = r.read_device_id_code;
         b[3] = r.object_id;
         n = 4;
-        break;
-    default: return errc::invalid_argument;
+    } else {
+        return errc::invalid_argument;
     }
     if (out.size() < n) return errc::buffer_too_small;
     for (std::size_t i = 0; i < n; ++i) out[i] = b[i];
@@ -199,29 +224,30 @@ constexpr std::size_t expected_request_length(std::span<const std::uint8_t> p) n
 }
 
 // Length of a response PDU from its first bytes: 0 = need more, no_frame = cannot be framed.
+// With all functions, the other fixed-layout public ones (7, 11, 12, 17, 20-22, 24) are
+// framed too; with a smaller set only its own and exception responses are.
+template <function_set Fs = all_functions>
 constexpr std::size_t expected_response_length(std::span<const std::uint8_t> p) noexcept {
     if (p.empty()) return 0;
     if (p[0] > exception_flag) return 2; // FC | 0x80, exception code (AP §7)
-    switch (p[0]) {
+    constexpr bool others = Fs.mask == all_functions.mask;
+    const std::uint8_t fc = p[0];
+    const auto counted = [&](std::size_t header) {
+        return p.size() < header ? 0 : detail::limited(header + p[header - 1]);
+    };
+    switch (fc) {
     case 1:
     case 2:
     case 3:
     case 4:
-    case 12:
-    case 17:
-    case 20:
-    case 21:
-    case 23: return p.size() < 2 ? 0 : detail::limited(2u + p[1]);
+    case 23: return Fs.has(fc) ? counted(2) : no_frame;
     case 5:
     case 6:
     case 8:
-    case 11:
     case 15:
-    case 16: return 5;
-    case 7: return 2;
-    case 22: return 7;
-    case 24: return p.size() < 3 ? 0 : detail::limited(3u + load_be16(&p[1]));
+    case 16: return Fs.has(fc) ? 5 : no_frame;
     case 43: {
+        if (!Fs.has(fc)) return no_frame;
         // 2B 0E code conformity more next count, then count × (id, length, value).
         if (p.size() < 2) return 0;
         if (p[1] != mei_read_device_id) return no_frame;
@@ -234,6 +260,16 @@ constexpr std::size_t expected_response_length(std::span<const std::uint8_t> p) 
         }
         return pos;
     }
+    case 12:
+    case 17:
+    case 20:
+    case 21: return others ? counted(2) : no_frame;
+    case 11: return others ? 5 : no_frame;
+    case 7: return others ? 2 : no_frame;
+    case 22: return others ? 7 : no_frame;
+    case 24:
+        if (!others) return no_frame;
+        return p.size() < 3 ? 0 : detail::limited(3u + load_be16(&p[1]));
     default: return no_frame;
     }
 }
@@ -367,47 +403,44 @@ constexpr bool next_device_id_object(std::span<const std::uint8_t>& objects,
 
 // The response PDU `pdu` to `sent`. An exception response gives the server's code as a
 // modbus::device_category() error; another function code errc::unexpected_type; a wrong
-// length, byte count or echo errc::malformed.
-inline result<response> parse_response(const request& sent,
-                                       std::span<const std::uint8_t> pdu) noexcept {
+// length, byte count or echo errc::malformed; a request of a function not in `Fs`
+// errc::invalid_argument.
+template <function_set Fs = all_functions>
+result<response> parse_response(const request& sent, std::span<const std::uint8_t> pdu) noexcept {
+    using detail::one_of;
     if (pdu.empty()) return errc::malformed;
-    const auto fc = static_cast<std::uint8_t>(sent.function);
+    const function f = sent.function;
+    const auto fc = static_cast<std::uint8_t>(f);
     if (pdu[0] == (fc | exception_flag)) {
         if (pdu.size() != 2 || pdu[1] == 0) return errc::malformed;
         return std::error_code(pdu[1], device_category());
     }
     if (pdu[0] != fc) return errc::unexpected_type;
     response r;
-    r.function = sent.function;
+    r.function = f;
     r.address = sent.address;
     r.quantity = sent.quantity;
-    switch (sent.function) {
-    case function::read_coils:
-    case function::read_discrete_inputs:
-    case function::read_holding_registers:
-    case function::read_input_registers:
-    case function::read_write_multiple_registers: {
-        const bool bits = sent.function == function::read_coils ||
-                          sent.function == function::read_discrete_inputs;
+    if (one_of<Fs, function::read_coils, function::read_discrete_inputs,
+               function::read_holding_registers, function::read_input_registers,
+               function::read_write_multiple_registers>(f)) {
+        const bool bits = f == function::read_coils || f == function::read_discrete_inputs;
         const std::size_t bytes = bits ? packed_size(sent.quantity) : 2u * sent.quantity;
         if (pdu.size() < 2 || pdu[1] != bytes || pdu.size() != 2 + bytes) return errc::malformed;
         r.data = pdu.subspan(2);
         return r;
     }
-    case function::write_single_coil:
-    case function::write_single_register:
-    case function::write_multiple_coils:
-    case function::write_multiple_registers: {
+    if (one_of<Fs, function::write_single_coil, function::write_single_register,
+               function::write_multiple_coils, function::write_multiple_registers>(f)) {
         if (pdu.size() != 5 || load_be16(&pdu[1]) != sent.address) return errc::malformed;
         const std::uint16_t second = load_be16(&pdu[3]);
-        const bool single = sent.function == function::write_single_coil ||
-                            sent.function == function::write_single_register;
+        const bool single =
+            f == function::write_single_coil || f == function::write_single_register;
         if (second != (single ? sent.value : sent.quantity)) return errc::malformed;
         r.value = single ? second : std::uint16_t{0};
         r.quantity = single ? std::uint16_t{0} : second;
         return r;
     }
-    case function::diagnostics: {
+    if (one_of<Fs, function::diagnostics>(f)) {
         // Echo of the sub-function; Return Query Data echoes the data too (AP §6.8.1).
         if (pdu.size() != 5 || load_be16(&pdu[1]) != sent.value) return errc::malformed;
         r.value = sent.value;
@@ -419,7 +452,7 @@ inline result<response> parse_response(const request& sent,
             return errc::malformed;
         return r;
     }
-    case function::encapsulated_interface: {
+    if (one_of<Fs, function::encapsulated_interface>(f)) {
         // 2B 0E code conformity more-follows(00/FF) next-object count objects… (AP §6.21)
         if (pdu.size() < 7 || pdu[1] != mei_read_device_id || pdu[2] != sent.read_device_id_code)
             return errc::malformed;
@@ -436,7 +469,6 @@ inline result<response> parse_response(const request& sent,
             if (!next_device_id_object(rest, o)) return errc::malformed;
         if (!rest.empty()) return errc::malformed;
         return r;
-    }
     }
     return errc::invalid_argument;
 }

@@ -41,7 +41,12 @@ inline result<std::size_t> encode_rtu(std::uint8_t address, std::span<const std:
 // decoder may still hold bytes that form a frame, which the next feed() (an empty span is
 // fine) yields. Each CRC error is reported (errc::bad_checksum); a run of bytes that start no
 // frame once (errc::malformed). Addresses are not filtered.
-class rtu_decoder {
+//
+// rtu_decoder frames requests or responses of every function code, as chosen when it is
+// made. A client's decoder is basic_rtu_decoder<Fs, false>: it frames only responses, and
+// only those of the functions in Fs (see function_set), so firmware carries no other.
+template <function_set Fs = all_functions, bool Requests = true>
+class basic_rtu_decoder {
 public:
     enum class accept : std::uint8_t { responses, requests };
     enum class status : std::uint8_t { need_more, frame, error };
@@ -51,7 +56,8 @@ public:
         std::error_code ec{};
     };
 
-    explicit rtu_decoder(accept a = accept::responses) noexcept : accept_(a) {}
+    basic_rtu_decoder() noexcept = default; // responses
+    explicit basic_rtu_decoder(accept a) noexcept requires Requests : accept_(a) {}
 
     step feed(std::span<const std::uint8_t> in) noexcept {
         take_frame();
@@ -83,8 +89,8 @@ public:
             if (s.what != status::need_more) return s;
             if (size_ == 0) break;
             const auto pdu = std::span<const std::uint8_t>(buf_.data() + 1, size_ - 1);
-            if (accept_ == accept::requests && size_ >= 4 &&
-                expected_request_length(pdu) == no_frame && crc16_modbus(view(size_)) == 0) {
+            if (requests() && size_ >= 4 && expected_request_length(pdu) == no_frame &&
+                crc16_modbus(view(size_)) == 0) {
                 frame_size_ = size_;
                 garbage_ = false;
                 return {status::frame, 0, {}};
@@ -115,6 +121,13 @@ public:
 private:
     std::span<const std::uint8_t> view(std::size_t n) const noexcept { return {buf_.data(), n}; }
 
+    constexpr bool requests() const noexcept {
+        if constexpr (Requests)
+            return accept_ == accept::requests;
+        else
+            return false;
+    }
+
     // The previous frame's bytes leave the buffer; bytes behind it are looked at again.
     void take_frame() noexcept {
         if (frame_size_ == 0) return;
@@ -139,13 +152,13 @@ private:
         for (;;) {
             if (size_ < 2) return {};
             const auto pdu = std::span<const std::uint8_t>(buf_.data() + 1, size_ - 1);
-            const std::size_t len = accept_ == accept::requests ? expected_request_length(pdu)
-                                                                : expected_response_length(pdu);
+            const std::size_t len =
+                requests() ? expected_request_length(pdu) : expected_response_length<Fs>(pdu);
             if (len == 0) return {};
             if (len == no_frame) {
                 // A request of an unknown function code waits for finish() (the silence after
                 // it), as long as it can still fit an ADU.
-                if (accept_ == accept::requests && size_ < max_rtu_adu) return {};
+                if (requests() && size_ < max_rtu_adu) return {};
                 if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
                 continue;
             }
@@ -165,8 +178,10 @@ private:
     std::size_t size_ = 0;       // bytes buffered
     std::size_t frame_size_ = 0; // a frame was yielded: its bytes at the front
     std::size_t skipped_ = 0;
-    accept accept_;
+    accept accept_ = accept::responses;
     bool garbage_ = false; // a run of dropped bytes has been reported
 };
+
+using rtu_decoder = basic_rtu_decoder<>;
 
 } // namespace ferrule::modbus
