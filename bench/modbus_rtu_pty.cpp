@@ -6,7 +6,11 @@
 //               response is in: what any client must at least do (the floor)
 //   libmodbus   modbus_read_registers() of a libmodbus RTU client (it keeps no gap)
 //   ferrule     modbus::read_holding_registers() over host::serial_stream on an
-//               asio::serial_port, inter_frame_gap = 0 (the option for virtual links)
+//               asio::serial_port, inter_frame_gap = 0 (the option for virtual links),
+//               input flushed before each request (discard_stale_input, the default:
+//               one tcflush() per transaction)
+//   ferrule_noflush  the same with discard_stale_input = false: the system calls of the
+//               bare loop and of libmodbus, which flush nothing either
 //
 // side_by_side runs the three in turns on one pty pair and server, so they share whatever
 // else the machine does. Counters per client: transactions per second of wall time and CPU
@@ -187,8 +191,8 @@ private:
 // the next request no earlier than the computed end of the last one, whatever the gap.
 class ferrule_client {
 public:
-    ferrule_client(const std::string& path, std::uint32_t baud)
-        : port_(ctx_, path), stream_(ctx_, port_), session_(config(baud)) {
+    ferrule_client(const std::string& path, std::uint32_t baud, bool flush = true)
+        : port_(ctx_, path), stream_(ctx_, port_), session_(config(baud, flush)) {
         port_.set_option(::asio::serial_port::baud_rate(19200));
         port_.set_option(::asio::serial_port::character_size(8));
         port_.set_option(::asio::serial_port::parity(::asio::serial_port::parity::none));
@@ -202,10 +206,11 @@ public:
     }
 
 private:
-    static mb::client_config config(std::uint32_t baud) {
+    static mb::client_config config(std::uint32_t baud, bool flush) {
         mb::client_config c;
         c.format = {baud, 8, ferrule::parity::none, 1};
         c.inter_frame_gap = ferrule::duration::zero();
+        c.discard_stale_input = flush;
         return c;
     }
 
@@ -238,35 +243,41 @@ void put(benchmark::State& state, const char* name, const tally& t) {
     state.counters[std::string(name) + "_cpu_us_per_tx"] = t.cpu / t.done * 1e6;
 }
 
-// 20 rounds of 100 transactions of each client in turn (2000 each), with format 4 Mbaud for
+// 50 rounds of 100 transactions of each client in turn (5000 each), with format 4 Mbaud for
 // ferrule; and 100 transactions of ferrule with format 19200 at the end.
 void side_by_side(benchmark::State& state) {
-    constexpr int rounds = 20, burst_size = 100;
-    tally bare, lib, ours, ours19200;
+    constexpr int rounds = 50, burst_size = 100;
+    tally bare, lib, ours, noflush, ours19200;
     for (auto _ : state) {
         rig r;
         if (!r.ok()) return state.SkipWithError("no pty pair / server");
         bare_client b(r.client_path());
         libmodbus_client l(r.client_path());
         ferrule_client f(r.client_path(), 4'000'000);
+        ferrule_client fn(r.client_path(), 4'000'000, false);
         ferrule_client f19200(r.client_path(), 19200);
-        if (!b.ok() || !l.ok() || !f.ok()) return state.SkipWithError("cannot open the pty");
+        if (!b.ok() || !l.ok() || !f.ok() || !fn.ok())
+            return state.SkipWithError("cannot open the pty");
         for (int i = 0; i < rounds; ++i) {
             burst(b, burst_size, bare);
             burst(l, burst_size, lib);
             burst(f, burst_size, ours);
+            burst(fn, burst_size, noflush);
         }
         burst(f19200, burst_size, ours19200);
     }
     if (bare.good != bare.done || lib.good != lib.done || ours.good != ours.done ||
-        ours19200.good != ours19200.done)
+        noflush.good != noflush.done || ours19200.good != ours19200.done)
         state.SkipWithError("a transaction failed or returned wrong values");
     put(state, "bare", bare);
     put(state, "libmodbus", lib);
     put(state, "ferrule", ours);
+    put(state, "ferrule_noflush", noflush);
     put(state, "ferrule_19200", ours19200);
     state.counters["ferrule_vs_bare"] = bare.wall / ours.wall;
     state.counters["ferrule_vs_libmodbus"] = lib.wall / ours.wall;
+    state.counters["noflush_vs_bare"] = bare.wall / noflush.wall;
+    state.counters["noflush_vs_libmodbus"] = lib.wall / noflush.wall;
 }
 
 // One client alone, 2000 transactions.
@@ -290,7 +301,10 @@ void only_libmodbus(benchmark::State& state) {
     only<libmodbus_client>(state);
 }
 void only_ferrule(benchmark::State& state) {
-    only<ferrule_client>(state, std::uint32_t{4'000'000});
+    only<ferrule_client>(state, std::uint32_t{4'000'000}, true);
+}
+void only_ferrule_noflush(benchmark::State& state) {
+    only<ferrule_client>(state, std::uint32_t{4'000'000}, false);
 }
 
 } // namespace
@@ -299,3 +313,4 @@ BENCHMARK(side_by_side)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(only_bare)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(only_libmodbus)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(only_ferrule)->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(only_ferrule_noflush)->Iterations(1)->Unit(benchmark::kMillisecond);
