@@ -79,8 +79,8 @@ TEST_CASE("profibus FCS is the byte sum from DA to the last data byte", "[profib
 
 TEST_CASE("profibus golden telegrams encode exactly", "[profibus][fdl]") {
     // FDL_Status.req 10 08 02 49 53 16
-    CHECK(encoded(request(8, 2, request_code(request_fn::fdl_status, false, false), no_sap,
-                          no_sap, {})) == bytes{0x10, 0x08, 0x02, 0x49, 0x53, 0x16});
+    CHECK(encoded(request(8, 2, request_code(request_fn::fdl_status, false, false), no_sap, no_sap,
+                          {})) == bytes{0x10, 0x08, 0x02, 0x49, 0x53, 0x16});
     // FDL_Status.res from slave 8: SD1, FC 0x00
     CHECK(encoded(request(2, 8, response_code(response_fn::ok), no_sap, no_sap, {})) ==
           bytes{0x10, 0x02, 0x08, 0x00, 0x0A, 0x16});
@@ -89,14 +89,14 @@ TEST_CASE("profibus golden telegrams encode exactly", "[profibus][fdl]") {
           bytes{0x68, 0x05, 0x05, 0x68, 0x88, 0x82, 0x6D, 0x3C, 0x3E, 0xF1, 0x16});
     // Slave_Diag.res in WPRM, SD3: A2 82 88 08 3E 3C 02 05 00 FF 08 15 AF 16
     const bytes diag{0x02, 0x05, 0x00, 0xFF, 0x08, 0x15};
-    CHECK(encoded(request(2, 8, response_code(response_fn::data_low), 62, 60, diag)) ==
-          bytes{0xA2, 0x82, 0x88, 0x08, 0x3E, 0x3C, 0x02, 0x05, 0x00, 0xFF, 0x08, 0x15, 0xAF,
-                0x16});
+    CHECK(
+        encoded(request(2, 8, response_code(response_fn::data_low), 62, 60, diag)) ==
+        bytes{0xA2, 0x82, 0x88, 0x08, 0x3E, 0x3C, 0x02, 0x05, 0x00, 0xFF, 0x08, 0x15, 0xAF, 0x16});
     // Set_Prm.req: Lock | WD, 10 × 10, min TSDR 11, ident 0815, group 0
     const bytes prm{0x88, 0x0A, 0x0A, 0x0B, 0x08, 0x15, 0x00};
     CHECK(encoded(request(8, 2, request_code(request_fn::srd_high, true, true), 61, 62, prm)) ==
-          bytes{0x68, 0x0C, 0x0C, 0x68, 0x88, 0x82, 0x7D, 0x3D, 0x3E, 0x88, 0x0A, 0x0A, 0x0B,
-                0x08, 0x15, 0x00, 0xC6, 0x16});
+          bytes{0x68, 0x0C, 0x0C, 0x68, 0x88, 0x82, 0x7D, 0x3D, 0x3E, 0x88, 0x0A, 0x0A, 0x0B, 0x08,
+                0x15, 0x00, 0xC6, 0x16});
     // Chk_Cfg.req (0x11, 0x21)
     const bytes cfg{0x11, 0x21};
     CHECK(encoded(request(8, 2, request_code(request_fn::srd_high, true, false), 62, 62, cfg)) ==
@@ -116,9 +116,9 @@ TEST_CASE("profibus golden telegrams encode exactly", "[profibus][fdl]") {
           bytes{0xA2, 0x08, 0x02, 0x5D, 0, 1, 2, 3, 4, 5, 6, 7, 0x83, 0x16});
     // Global_Control Clear_Data to 127
     const bytes clear{0x02, 0x00};
-    CHECK(encoded(request(127, 2, request_code(request_fn::sdn_high, false, false), 58, 62,
-                          clear)) ==
-          bytes{0x68, 0x07, 0x07, 0x68, 0xFF, 0x82, 0x46, 0x3A, 0x3E, 0x02, 0x00, 0x41, 0x16});
+    CHECK(
+        encoded(request(127, 2, request_code(request_fn::sdn_high, false, false), 58, 62, clear)) ==
+        bytes{0x68, 0x07, 0x07, 0x68, 0xFF, 0x82, 0x46, 0x3A, 0x3E, 0x02, 0x00, 0x41, 0x16});
     // Short acknowledgement and token
     telegram ack;
     ack.frame = frame::short_ack;
@@ -134,8 +134,8 @@ TEST_CASE("profibus an 8-byte data unit decodes the same from SD2 and SD3", "[pr
     // The real ET200S answers Slave_Diag with SD2 (§B.2).
     const bytes et200s{0x68, 0x0B, 0x0B, 0x68, 0x81, 0x88, 0x08, 0x3E, 0x3C,
                        0x02, 0x05, 0x00, 0xFF, 0x80, 0xE0, 0xF1, 0x16};
-    const bytes sd3_form{0xA2, 0x81, 0x88, 0x08, 0x3E, 0x3C, 0x02, 0x05,
-                         0x00, 0xFF, 0x80, 0xE0, 0xF1, 0x16};
+    const bytes sd3_form{0xA2, 0x81, 0x88, 0x08, 0x3E, 0x3C, 0x02,
+                         0x05, 0x00, 0xFF, 0x80, 0xE0, 0xF1, 0x16};
     for (const bytes& in : {et200s, sd3_form}) {
         const auto d = decode_all(in);
         REQUIRE(d.telegrams.size() == 1);
@@ -162,12 +162,13 @@ TEST_CASE("profibus an 8-byte data unit decodes the same from SD2 and SD3", "[pr
 }
 
 TEST_CASE("profibus golden telegrams decode, byte by byte and in one piece", "[profibus][fdl]") {
-    const bytes stream{0x10, 0x08, 0x02, 0x49, 0x53, 0x16,                               // FDL_Status
+    const bytes stream{0x10, 0x08, 0x02, 0x49, 0x53, 0x16, // FDL_Status
                        0x68, 0x0C, 0x0C, 0x68, 0x88, 0x82, 0x7D, 0x3D, 0x3E, 0x88, 0x0A, // Set_Prm
                        0x0A, 0x0B, 0x08, 0x15, 0x00, 0xC6, 0x16,                         //
                        0xE5,                                                             // SC
-                       0xA2, 0x08, 0x02, 0x5D, 0, 1, 2, 3, 4, 5, 6, 7, 0x83, 0x16,       // DX SD3
-                       0xDC, 0x03, 0x02};                                                // token
+                       0xA2, 0x08, 0x02, 0x5D, 0,    1,    2,    3,    4,    5,    6,
+                       7,    0x83, 0x16,  // DX SD3
+                       0xDC, 0x03, 0x02}; // token
     for (const std::size_t chunk : {std::size_t{1}, std::size_t{7}, stream.size()}) {
         const auto d = decode_all(stream, chunk);
         CHECK(d.errors.empty());
@@ -189,8 +190,7 @@ TEST_CASE("profibus golden telegrams decode, byte by byte and in one piece", "[p
     }
 }
 
-TEST_CASE("profibus decoder resynchronises after garbage and broken telegrams",
-          "[profibus][fdl]") {
+TEST_CASE("profibus decoder resynchronises after garbage and broken telegrams", "[profibus][fdl]") {
     const bytes good{0x10, 0x08, 0x02, 0x49, 0x53, 0x16};
     SECTION("garbage before a telegram is one malformed run") {
         bytes in{0x00, 0x55, 0x99};

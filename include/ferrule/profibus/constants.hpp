@@ -59,12 +59,12 @@ enum class request_fn : std::uint8_t {
 // Response function codes, bits 3…0 (bits 5…4: station type, 00 = slave).
 enum class response_fn : std::uint8_t {
     ok = 0x0,
-    user_error = 0x1,      // UE
-    no_resource = 0x2,     // RR
-    sap_not_active = 0x3,  // RS
-    data_low = 0x8,        // DL: the normal DP reply
+    user_error = 0x1,       // UE
+    no_resource = 0x2,      // RR
+    sap_not_active = 0x3,   // RS
+    data_low = 0x8,         // DL: the normal DP reply
     no_response_data = 0x9, // NR
-    data_high = 0xA,       // DH: new diagnosis waits, the master fetches Slave_Diag
+    data_high = 0xA,        // DH: new diagnosis waits, the master fetches Slave_Diag
     rdl = 0xC,
     rdh = 0xD,
 };

@@ -221,8 +221,8 @@ private:
             if (size_ < len) return {};
             if (len >= 6) {
                 const std::size_t header = buf_[0] == sd2 ? 4 : 1;
-                const auto body = std::span<const std::uint8_t>(buf_.data() + header,
-                                                                len - header - 2);
+                const auto body =
+                    std::span<const std::uint8_t>(buf_.data() + header, len - header - 2);
                 if (buf_[len - 1] != ed) {
                     if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
                     continue;

@@ -1,0 +1,162 @@
+// DP-V0 service data units, shared by the slave and the master sessions
+// (protocols/modbus_profibus.md §B.5):
+//
+//   Slave_Diag reply   Station_Status_1/2/3, Diag.Master_Add, Ident_Number (hi, lo),
+//                      extended diagnosis blocks…
+//   Set_Prm request    Station_Status, WD_Fact_1, WD_Fact_2, min_TSDR, Ident (hi, lo),
+//                      Group_Ident, User_Prm_Data…
+//   Chk_Cfg / Get_Cfg  identifier bytes (compact or special format)
+//   Global_Control     Control_Command, Group_Select
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/result.hpp"
+#include "ferrule/core/time.hpp"
+#include "ferrule/profibus/constants.hpp"
+
+namespace ferrule::profibus {
+
+struct slave_diag {
+    std::uint8_t status1 = 0;
+    std::uint8_t status2 = diag::always_one;
+    std::uint8_t status3 = 0;
+    std::uint8_t master = diag::no_master;
+    std::uint16_t ident = 0;
+    std::span<const std::uint8_t> ext{}; // extended diagnosis blocks
+
+    // Ready for Data_Exchange: none of Non_Existent, Not_Ready, Cfg_Fault, Prm_Fault, and no
+    // Prm_Req (pyprofibus isReadyDataEx, §B.5).
+    constexpr bool ready() const noexcept {
+        return (status1 & (diag::station_non_existent | diag::station_not_ready | diag::cfg_fault |
+                           diag::prm_fault)) == 0 &&
+               (status2 & diag::prm_req) == 0;
+    }
+};
+
+// At least the six standard bytes; the rest is extended diagnosis.
+inline result<slave_diag> parse_slave_diag(std::span<const std::uint8_t> du) noexcept {
+    if (du.size() < diag::standard_size) return errc::malformed;
+    slave_diag d;
+    d.status1 = du[0];
+    d.status2 = du[1];
+    d.status3 = du[2];
+    d.master = du[3];
+    d.ident = static_cast<std::uint16_t>(du[4] << 8 | du[5]);
+    d.ext = du.subspan(diag::standard_size);
+    return d;
+}
+
+inline result<std::size_t> encode_slave_diag(const slave_diag& d,
+                                             std::span<std::uint8_t> out) noexcept {
+    const std::size_t n = diag::standard_size + d.ext.size();
+    if (n > max_data - 2) return errc::invalid_argument; // DSAP and SSAP travel with it
+    if (out.size() < n) return errc::buffer_too_small;
+    out[0] = d.status1;
+    out[1] = d.status2;
+    out[2] = d.status3;
+    out[3] = d.master;
+    out[4] = static_cast<std::uint8_t>(d.ident >> 8);
+    out[5] = static_cast<std::uint8_t>(d.ident);
+    for (std::size_t i = 0; i < d.ext.size(); ++i) out[diag::standard_size + i] = d.ext[i];
+    return n;
+}
+
+struct prm_data {
+    std::uint8_t station_status = 0; // prm::lock_req, unlock_req, sync_req, freeze_req, wd_on
+    std::uint8_t wd_fact1 = 1;
+    std::uint8_t wd_fact2 = 1;
+    std::uint8_t min_tsdr = 0; // bit times; 0 = keep the slave's
+    std::uint16_t ident = 0;
+    std::uint8_t group = 0;
+    std::span<const std::uint8_t> user{}; // User_Prm_Data
+
+    constexpr bool watchdog_on() const noexcept { return (station_status & prm::wd_on) != 0; }
+    // WD_Fact_1 × WD_Fact_2 × 10 ms (§B.5; DP-V0: the 1 ms base of DP-V1 is not used).
+    constexpr duration watchdog() const noexcept {
+        return std::chrono::milliseconds(10) * (unsigned{wd_fact1} * wd_fact2);
+    }
+};
+
+inline result<prm_data> parse_prm(std::span<const std::uint8_t> du) noexcept {
+    if (du.size() < prm::standard_size) return errc::malformed;
+    prm_data p;
+    p.station_status = du[0];
+    p.wd_fact1 = du[1];
+    p.wd_fact2 = du[2];
+    p.min_tsdr = du[3];
+    p.ident = static_cast<std::uint16_t>(du[4] << 8 | du[5]);
+    p.group = du[6];
+    p.user = du.subspan(prm::standard_size);
+    return p;
+}
+
+inline result<std::size_t> encode_prm(const prm_data& p, std::span<std::uint8_t> out) noexcept {
+    const std::size_t n = prm::standard_size + p.user.size();
+    if (n > max_data - 2) return errc::invalid_argument;
+    if (out.size() < n) return errc::buffer_too_small;
+    out[0] = p.station_status;
+    out[1] = p.wd_fact1;
+    out[2] = p.wd_fact2;
+    out[3] = p.min_tsdr;
+    out[4] = static_cast<std::uint8_t>(p.ident >> 8);
+    out[5] = static_cast<std::uint8_t>(p.ident);
+    out[6] = p.group;
+    for (std::size_t i = 0; i < p.user.size(); ++i) out[prm::standard_size + i] = p.user[i];
+    return n;
+}
+
+// Input and output bytes that configuration identifiers describe (§B.5):
+//   compact:  bits 3…0 length − 1, bits 5…4 01 in / 10 out / 11 in+out, bit 6 words,
+//             bit 7 consistency; 0x00 is an empty slot
+//   special:  bits 5…4 = 00, bits 7…6 00 none / 01 in / 10 out / 11 in+out (one length byte
+//             each, out first), bits 3…0 manufacturer bytes that follow; length byte: bits
+//             5…0 length − 1, bit 6 words, bit 7 consistency
+struct io_sizes {
+    std::size_t inputs = 0;
+    std::size_t outputs = 0;
+};
+
+inline result<io_sizes> cfg_io_sizes(std::span<const std::uint8_t> cfg) noexcept {
+    io_sizes s;
+    std::size_t i = 0;
+    const auto length_of = [](std::uint8_t b, unsigned mask) {
+        const std::size_t units = (b & mask) + 1u;
+        return (b & 0x40) ? 2 * units : units;
+    };
+    while (i < cfg.size()) {
+        const std::uint8_t id = cfg[i++];
+        const unsigned dir = (id >> 4) & 0x3;
+        if (dir != 0) { // compact
+            const std::size_t n = length_of(id, 0x0F);
+            if (dir & 0x1) s.inputs += n;
+            if (dir & 0x2) s.outputs += n;
+            continue;
+        }
+        if (id == 0x00) continue; // empty slot
+        const unsigned special = id >> 6;
+        const std::size_t vendor = id & 0x0F;
+        // The output length byte comes before the input length byte.
+        if (special & 0x2) {
+            if (i >= cfg.size()) return errc::malformed;
+            s.outputs += length_of(cfg[i++], 0x3F);
+        }
+        if (special & 0x1) {
+            if (i >= cfg.size()) return errc::malformed;
+            s.inputs += length_of(cfg[i++], 0x3F);
+        }
+        if (cfg.size() - i < vendor) return errc::malformed;
+        i += vendor;
+    }
+    return s;
+}
+
+struct global_control {
+    std::uint8_t command = 0; // control::clear_data, freeze, unfreeze, sync, unsync
+    std::uint8_t group = 0;   // 0: every slave; else the groups whose bit is set
+};
+
+} // namespace ferrule::profibus
