@@ -612,3 +612,18 @@ TEST_CASE("modbus client with a function set: others refused, its own served", "
     CHECK(read_holding_registers(line, c, 1, 0, reg) == errc::malformed);
     CHECK(c.stats().malformed == 1);
 }
+
+TEST_CASE("modbus client keeps the response PDU as received, exception responses too",
+          "[modbus][client]") {
+    const bytes exception = adu(1, {0x83, 0x02});
+    const std::array<script_step, 2> steps{answer(read1, value42, 5ms),
+                                           answer(read1, exception, 5ms)};
+    ferrule::script_peer peer(steps);
+    mock_serial line(f9600, &peer);
+    client c(rtu_config(f9600));
+    std::array<std::uint16_t, 1> reg{};
+    REQUIRE_FALSE(read_holding_registers(line, c, 1, 0, reg));
+    CHECK(bytes(c.response_pdu().begin(), c.response_pdu().end()) == bytes{0x03, 0x02, 0x00, 0x2A});
+    CHECK(read_holding_registers(line, c, 1, 0, reg) == exception_code::illegal_data_address);
+    CHECK(bytes(c.response_pdu().begin(), c.response_pdu().end()) == bytes{0x83, 0x02});
+}

@@ -255,3 +255,14 @@ TEST_CASE("profibus encode refuses what a telegram cannot carry", "[profibus][fd
     t.data = {};
     CHECK(encode(t, small).error() == errc::buffer_too_small);
 }
+
+TEST_CASE("profibus SAP bytes with a segment or further extension are not DP: malformed",
+          "[profibus][fdl]") {
+    for (const bytes& in : {bytes{0x68, 0x05, 0x05, 0x68, 0x88, 0x82, 0x6D, 0xBC, 0x3E, 0x71, 0x16},
+                            bytes{0x68, 0x05, 0x05, 0x68, 0x88, 0x82, 0x6D, 0x7C, 0x3E, 0x31, 0x16},
+                            bytes{0xDC, 0x88, 0x02}}) {
+        const auto d = decode_all(in);
+        CHECK(d.telegrams.empty());
+        CHECK(d.errors == std::vector<std::error_code>{errc::malformed});
+    }
+}

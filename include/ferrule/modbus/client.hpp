@@ -131,6 +131,7 @@ public:
         attempts_ = 0;
         error_ = {};
         response_ = {};
+        rx_size_ = 0;
         ++stats_.transactions;
         state_ = state::pending_send;
         return {};
@@ -219,6 +220,9 @@ public:
     // The response of a successful transaction; its data spans the session's buffer, valid
     // until the next start().
     const modbus::response& response() const noexcept { return response_; }
+    // The PDU of the last response that answered the request (a normal or an exception
+    // response), as received; empty when none did. Valid until the next start().
+    std::span<const std::uint8_t> response_pdu() const noexcept { return {rx_.data(), rx_size_}; }
     // The request PDU and the ADU as last sent.
     std::span<const std::uint8_t> pdu() const noexcept { return {pdu_.data(), pdu_size_}; }
     std::span<const std::uint8_t> request_bytes() const noexcept { return {tx_.data(), tx_size_}; }
@@ -349,9 +353,11 @@ private:
         const auto parsed = parse_response<Fs>(sent_, {rx_.data(), pdu.size()});
         if (!parsed) {
             const bool exception = parsed.error().category() == device_category();
+            rx_size_ = exception ? pdu.size() : 0;
             fail(parsed.error(), !exception);
             return;
         }
+        rx_size_ = pdu.size();
         response_ = *parsed;
         ++stats_.succeeded;
         finish({});
@@ -397,6 +403,7 @@ private:
     std::array<std::uint8_t, max_tcp_adu> tx_{};
     std::size_t tx_size_ = 0;
     std::array<std::uint8_t, max_pdu> rx_{};
+    std::size_t rx_size_ = 0;
     decoder rtu_{};
     tcp_decoder tcp_{};
     time_point send_after_ = time_point::min();

@@ -13,7 +13,9 @@
 //
 // fdl_decoder frames a byte stream by start delimiter and length, checks LE = LEr, FCS and
 // ED, and after an error drops the first byte and looks again from the next, so a telegram
-// behind garbage is still found.
+// behind garbage is still found. A SAP byte with bit 7 (a further extension follows) or
+// bit 6 (a segment address) set, and a token with an address extension, are telegrams DP
+// does not use (§B.3): malformed, not decoded with those bits lost.
 #pragma once
 
 #include <array>
@@ -235,8 +237,9 @@ private:
                     if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
                     continue;
                 }
-            } else {
-                parse_short();
+            } else if (!parse_short()) {
+                if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
+                continue;
             }
             frame_size_ = len;
             garbage_ = false;
@@ -253,28 +256,31 @@ private:
         t.fc = body[2];
         std::size_t i = 3;
         if (body[0] & address_extension) {
-            if (i >= body.size()) return false;
-            t.dsap = static_cast<std::uint8_t>(body[i++] & sap_mask);
+            if (i >= body.size() || body[i] > sap_mask) return false;
+            t.dsap = body[i++];
         }
         if (body[1] & address_extension) {
-            if (i >= body.size()) return false;
-            t.ssap = static_cast<std::uint8_t>(body[i++] & sap_mask);
+            if (i >= body.size() || body[i] > sap_mask) return false;
+            t.ssap = body[i++];
         }
         t.data = body.subspan(i);
         t_ = t;
         return true;
     }
 
-    void parse_short() noexcept {
+    // SC, or SD4 DA SA (token addresses carry no extension).
+    bool parse_short() noexcept {
         profibus::telegram t;
         if (buf_[0] == sc) {
             t.frame = frame::short_ack;
         } else {
+            if ((buf_[1] | buf_[2]) & address_extension) return false;
             t.frame = frame::sd4;
-            t.da = static_cast<std::uint8_t>(buf_[1] & 0x7F);
-            t.sa = static_cast<std::uint8_t>(buf_[2] & 0x7F);
+            t.da = buf_[1];
+            t.sa = buf_[2];
         }
         t_ = t;
+        return true;
     }
 
     std::array<std::uint8_t, max_telegram> buf_{};

@@ -1,0 +1,67 @@
+// What a DP slave answers instead of data, as std::error_code values of
+// profibus::device_category(), so callers can tell a slave's refusal from a transport error
+// (ferrule::errc: timeout = no reply, bad_checksum = FCS error). Values:
+//   * the response function codes UE, RR, RS, NR (FC bits 3…0, §B.3) as the slave sent them;
+//   * the verdicts of a Slave_Diag after the start-up sequence of §B.6 (Prm_Fault, Cfg_Fault,
+//     still not ready), above the FC range.
+#pragma once
+
+#include <system_error> // std::string of message(): the category interface needs it
+
+#include "ferrule/profibus/constants.hpp"
+
+namespace ferrule::profibus {
+
+enum class device_error : int {
+    user_error = static_cast<int>(response_fn::user_error),             // UE
+    no_resource = static_cast<int>(response_fn::no_resource),           // RR
+    sap_not_active = static_cast<int>(response_fn::sap_not_active),     // RS
+    no_response_data = static_cast<int>(response_fn::no_response_data), // NR
+    prm_fault = 0x100, // Station_Status_1 Prm_Fault after Set_Prm (§B.5)
+    cfg_fault = 0x101, // Station_Status_1 Cfg_Fault after Chk_Cfg (§B.5)
+    not_ready = 0x102, // not ready for Data_Exchange after the last Slave_Diag poll
+};
+
+class device_category_t final : public std::error_category {
+public:
+    const char* name() const noexcept override { return "profibus"; }
+    std::string message(int ev) const override { return describe(ev); }
+
+    static const char* describe(int ev) noexcept {
+        switch (static_cast<device_error>(ev)) {
+        case device_error::user_error: return "slave: user error (UE)";
+        case device_error::no_resource: return "slave: no resources for the request (RR)";
+        case device_error::sap_not_active: return "slave: SAP not activated (RS)";
+        case device_error::no_response_data: return "slave: no response data (NR)";
+        case device_error::prm_fault: return "slave: parameter fault (Prm_Fault)";
+        case device_error::cfg_fault: return "slave: configuration fault (Cfg_Fault)";
+        case device_error::not_ready: return "slave: not ready for data exchange";
+        }
+        return "unknown PROFIBUS slave error";
+    }
+};
+
+inline const std::error_category& device_category() noexcept {
+    static const device_category_t instance;
+    return instance;
+}
+
+inline std::error_code make_error_code(device_error e) noexcept {
+    return {static_cast<int>(e), device_category()};
+}
+
+// The error a response function code stands for: UE, RR, RS and NR; empty for the others.
+inline std::error_code response_error(response_fn f) noexcept {
+    switch (f) {
+    case response_fn::user_error:
+    case response_fn::no_resource:
+    case response_fn::sap_not_active:
+    case response_fn::no_response_data: return {static_cast<int>(f), device_category()};
+    default: return {};
+    }
+}
+
+} // namespace ferrule::profibus
+
+template <>
+struct std::is_error_code_enum<ferrule::profibus::device_error> : std::true_type {};
