@@ -71,6 +71,7 @@ struct slave_stats {
     std::uint32_t watchdog_expiries = 0;
     std::uint32_t data_exchanges = 0; // executed (repeats not counted)
     std::uint32_t global_controls = 0;
+    std::uint32_t diag_reads = 0; // Slave_Diag answered (repeats not counted)
 };
 
 class slave {
@@ -242,6 +243,7 @@ private:
             std::array<std::uint8_t, max_data> du{};
             const auto n = encode_slave_diag(diagnosis(), du);
             diag_changed_ = false;
+            ++stats_.diag_reads;
             return reply_data(t, response_fn::data_low, {du.data(), n.value_or(0)}, end);
         }
         case sap::set_prm: return set_prm(t, end);
