@@ -323,3 +323,23 @@ TEST_CASE("gateway mapped mode: a drive's control word and setpoint out, its sta
     CHECK(rig.core().transactions().online(1));
     CHECK(rig.core().online(1));
 }
+
+TEST_CASE("gateway: a lost DP reply is repeated from the stored one, the command taken once",
+          "[gateway]") {
+    setup s(19'200, 9'600);
+    REQUIRE_FALSE(pb::bring_up(s.dp_line, s.master, 8, prm(), cfg5));
+    const octets cmd{0x06, 0xC8, 0x01, 0x01, 0xF4}; // setpoint 5.00 Hz
+    octets in;
+    REQUIRE_FALSE(s.exchange(cmd, in));
+    // The next reply is lost: the master repeats with the same FCB (§B.3), the slave answers
+    // its stored reply and executes nothing again.
+    s.rig.drop_dp_replies(1);
+    REQUIRE_FALSE(s.exchange(cmd, in));
+    CHECK(s.master.stats().retries == 1);
+    CHECK(s.rig.core().dp().stats().repeats == 1);
+    for (int cycle = 0; cycle < 40 && in != cmd; ++cycle) REQUIRE_FALSE(s.exchange(cmd, in));
+    CHECK(in == cmd);
+    CHECK(s.rig.core().stats().commands == 1);
+    CHECK(s.rig.core().stats().delivered == 1);
+    CHECK(s.rig.drives()[0].session.stats().requests == 1);
+}

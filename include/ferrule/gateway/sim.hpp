@@ -48,6 +48,10 @@ public:
         for (;;) {
             const session_action a = core_.next_dp(now);
             if (a.what != session_action::kind::send) break;
+            if (drop_ > 0) {
+                --drop_;
+                continue;
+            }
             dp_line.inject(a.bytes, now);
         }
         run_drive_line(now); // a DP loss just seen starts the safe writes now
@@ -55,6 +59,10 @@ public:
 
     // Runs the drive line alone up to `until` (a DP master that has stopped).
     void run_until(time_point until) { run_drive_line(until); }
+
+    // The next k replies of the gateway on the DP line are lost (the master sees a timeout
+    // and repeats its request with the same FCB).
+    void drop_dp_replies(unsigned k) noexcept { drop_ = k; }
 
 private:
     void run_drive_line(time_point until) {
@@ -87,6 +95,7 @@ private:
     modbus::sim::bus<Drives> drives_{};
     mock_serial drive_line_;
     time_point drive_wake_ = never;
+    unsigned drop_ = 0;
 };
 
 } // namespace ferrule::gateway::sim
