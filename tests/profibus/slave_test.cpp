@@ -198,8 +198,10 @@ TEST_CASE("profibus slave: wrong ident, wrong configuration, wrong output length
         CHECK(b.s.state() == slave_state::wait_prm);
         CHECK((b.s.diagnosis().status1 & diag::prm_fault) != 0);
         CHECK(b.s.stats().prm_faults == 1);
-        // Chk_Cfg before parameters: RS
-        CHECK(b.request(chk_cfg_req)->data == bytes{0x10, 0x02, 0x08, 0x03, 0x0D, 0x16});
+        // Chk_Cfg before parameters: acknowledged, not acted upon
+        CHECK(b.request(chk_cfg_req)->data == sc_reply);
+        CHECK(b.s.state() == slave_state::wait_prm);
+        CHECK((b.s.diagnosis().status2 & diag::prm_req) != 0);
     }
     SECTION("a configuration that is not the slave's: Cfg_Fault, back to Wait_Prm") {
         CHECK(b.request(set_prm_req)->data == sc_reply);
@@ -340,4 +342,27 @@ TEST_CASE("profibus slave: broken telegrams and other stations' traffic get no r
     CHECK(b.s.stats().not_ours == 3);
     CHECK_FALSE(b.request(bytes{0x00, 0x55, 0xAA}));
     CHECK(b.request(fdl_status_req)); // still answers after the garbage
+}
+
+// Found by fuzz/profibus_slave.cpp: an FDL_Status to 127 (FC 0x79) got the reply
+// 10 15 08 00 1D 16, which every slave on the line would send at once.
+TEST_CASE("profibus slave: only Global_Control is taken from the broadcast address",
+          "[profibus][slave]") {
+    bench b;
+    const auto broadcast = [](std::uint8_t fc, std::uint8_t dsap, const bytes& du) {
+        return telegram_bytes(broadcast_address, 21, fc, dsap,
+                              dsap == no_sap ? no_sap : master_sap, du);
+    };
+    CHECK_FALSE(b.request(broadcast(0x79, no_sap, {})));
+    CHECK_FALSE(b.request(broadcast(request_code(request_fn::sda_high, false, false), no_sap,
+                                    {0x01})));
+    CHECK_FALSE(b.request(
+        broadcast(request_code(request_fn::srd_high, true, false),
+                  static_cast<std::uint8_t>(sap::slave_diag), {})));
+    CHECK(b.s.stats().not_ours == 3);
+    CHECK(b.s.stats().replies == 0);
+    b.bring_up();
+    CHECK_FALSE(b.request(clear_data_req));
+    CHECK(b.s.stats().global_controls == 1);
+    CHECK(b.s.clear_data());
 }

@@ -10,7 +10,8 @@
 //     A locked slave takes Set_Prm, Chk_Cfg, Data_Exchange and Global_Control only from its
 //     master (others get a short acknowledgement and are not acted upon)
 //   * Chk_Cfg (SAP 62): the identifier bytes must equal the slave's configuration, else
-//     Cfg_Fault and Wait_Prm; Get_Cfg (SAP 59) answers the configuration
+//     Cfg_Fault and Wait_Prm; in Wait_Prm it is acknowledged and not acted upon; Get_Cfg
+//     (SAP 59) answers the configuration
 //   * Data_Exchange (default SAP, SRD): outputs of the configured length replace the
 //     outputs and the reply carries the inputs, DL, or DH while new diagnosis waits for the
 //     master (it then fetches Slave_Diag, §B.3); outputs of another length send the slave
@@ -28,8 +29,8 @@
 //   * the reply goes out min_TSDR bit times after the request's last character (11 tbit until
 //     Set_Prm says otherwise); max TSDR (60 tbit up to 187.5 kbit/s) is the master's limit
 //
-// Requests for other stations, replies of other stations, tokens and broken telegrams are
-// counted and not answered.
+// Requests for other stations, broadcasts other than Global_Control (§B.3), replies of other
+// stations, tokens and broken telegrams are counted and not answered.
 #pragma once
 
 #include <algorithm>
@@ -79,6 +80,7 @@ public:
     static constexpr std::size_t max_io = max_data; // inputs or outputs
     static constexpr std::size_t max_ext_diag = max_data - 2 - diag::standard_size;
 
+    slave() noexcept : slave(slave_config{}) {}
     explicit slave(const slave_config& cfg) noexcept : cfg_(cfg) {
         if (const auto s = cfg_io_sizes(cfg.cfg); s && s->inputs <= max_io && s->outputs <= max_io)
             io_ = *s;
@@ -195,10 +197,6 @@ private:
         // A new request: the master has moved on from any reply not yet sent.
         reply_due_ = false;
         const auto fn = static_cast<request_fn>(t.function());
-        if (fn == request_fn::fdl_status) {
-            ++stats_.requests;
-            return reply_short_telegram(t, response_fn::ok, end);
-        }
         if (fn == request_fn::sdn_high || fn == request_fn::sdn_low) {
             if (t.dsap == static_cast<std::uint8_t>(sap::global_control))
                 global(t, end);
@@ -206,13 +204,17 @@ private:
                 ++stats_.not_ours;
             return;
         }
+        if (t.da == broadcast_address) { // only SDN is broadcast: no station answers (§B.3)
+            ++stats_.not_ours;
+            return;
+        }
+        if (fn == request_fn::fdl_status) {
+            ++stats_.requests;
+            return reply_short_telegram(t, response_fn::ok, end);
+        }
         if (fn != request_fn::srd_high && fn != request_fn::srd_low) {
             ++stats_.requests;
             return reply_short_telegram(t, response_fn::sap_not_active, end);
-        }
-        if (t.da == broadcast_address) { // SRD is never broadcast
-            ++stats_.not_ours;
-            return;
         }
         // FCB/FCV (§B.3): the same FCB again from the same master is a repeat.
         if (t.fcv() && have_last_ && t.sa == last_sa_ && t.fcb() == last_fcb_) {
@@ -297,8 +299,10 @@ private:
 
     void chk_cfg(const telegram& t, time_point end) noexcept {
         if (locked_by_other(t.sa)) return reply_ack(end);
-        if (state_ == slave_state::wait_prm)
-            return reply_short_telegram(t, response_fn::sap_not_active, end);
+        // Before parameters it is acknowledged and not acted upon: the master's next
+        // Slave_Diag shows why (Prm_Req, Prm_Fault), as masters send Set_Prm and Chk_Cfg
+        // back to back before they look (§B.6).
+        if (state_ == slave_state::wait_prm) return reply_ack(end);
         if (!std::equal(t.data.begin(), t.data.end(), cfg_.cfg.begin(), cfg_.cfg.end())) {
             ++stats_.cfg_faults;
             cfg_fault_ = true;
