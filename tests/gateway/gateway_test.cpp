@@ -343,3 +343,37 @@ TEST_CASE("gateway: a lost DP reply is repeated from the stored one, the command
     CHECK(s.rig.core().stats().delivered == 1);
     CHECK(s.rig.drives()[0].session.stats().requests == 1);
 }
+
+TEST_CASE("gateway: with freeze, a DP loss leaves the drive as it is and a lost drive's "
+          "inputs stay",
+          "[gateway]") {
+    gw::config c = transparent(19'200, 19'200);
+    c.on_dp_loss = gw::dp_loss::freeze;
+    c.on_drive_loss = gw::drive_loss::freeze;
+    gw::sim::rig<2> rig(c);
+    mb::server_config drive;
+    drive.units = {1};
+    drive.format = c.modbus.format;
+    REQUIRE(rig.drives().add(drive));
+    mock_serial dp_line(pb::format(19'200), &rig);
+    pb::master master(setup::master_config(19'200));
+    REQUIRE_FALSE(pb::bring_up(dp_line, master, 8, prm(2), cfg5)); // watchdog 200 ms
+    const octets start{0x06, 0xC8, 0x00, 0x00, 0x25};
+    octets in(5);
+    for (int cycle = 0; cycle < 40 && in != start; ++cycle)
+        REQUIRE_FALSE(pb::data_exchange(dp_line, master, 8, start, in));
+    REQUIRE(in == start);
+    // The drive stops answering: its inputs are kept.
+    rig.drives().drop_replies(100);
+    const octets read{0x03, 0xC8, 0x02, 0x00, 0x01};
+    for (int cycle = 0; cycle < 200 && rig.core().stats().failed == 0; ++cycle)
+        REQUIRE_FALSE(pb::data_exchange(dp_line, master, 8, read, in));
+    REQUIRE_FALSE(pb::data_exchange(dp_line, master, 8, read, in));
+    CHECK_FALSE(rig.core().online(1));
+    CHECK(in == start);
+    // The master falls silent: no safe write, the drive keeps running.
+    dp_line.advance(300ms);
+    CHECK(rig.core().stats().dp_losses == 1);
+    CHECK(rig.core().stats().safe_writes == 0);
+    CHECK(rig.drives()[0].drive().control_word() == 0x0025);
+}
