@@ -1,0 +1,188 @@
+// The 218 header (protocols/memobus.md §2) and the framing of a byte stream into messages:
+//
+//   0  command type   0x11 command, 0x19 response, 0x12 general-purpose message
+//   1  serial number  per connection, 00…FF and round again; the response echoes it
+//   2  destination channel, 3 source channel (00 from a device that is not an MP)
+//   4…5 reserved 0
+//   6…7 total length, little-endian: header + MEMOBUS length field + MEMOBUS data
+//   8…11 reserved 0
+//
+// A command or response continues with the MEMOBUS length (2 bytes, little-endian: the bytes
+// from MFC to the end) that must equal total − 14 (FieldLink and Yaskawa's Delphi sample
+// check it, §10.1). Over TCP, message_decoder reads 12 bytes, then total − 12 more; over
+// UDP one datagram is one message (parse_message()).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <system_error>
+
+#include "ferrule/core/bytes.hpp"
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/result.hpp"
+#include "ferrule/memobus/constants.hpp"
+
+namespace ferrule::memobus {
+
+struct header {
+    command_type type = command_type::command;
+    std::uint8_t serial = 0;
+    std::uint8_t destination_channel = 0;
+    std::uint8_t source_channel = 0;
+    std::uint16_t total = 0; // the whole message, this header included
+};
+
+constexpr void store_header(const header& h, std::uint8_t* out) noexcept {
+    out[0] = static_cast<std::uint8_t>(h.type);
+    out[1] = h.serial;
+    out[2] = h.destination_channel;
+    out[3] = h.source_channel;
+    out[4] = out[5] = 0;
+    store_le16(out + 6, h.total);
+    out[8] = out[9] = out[10] = out[11] = 0;
+}
+
+constexpr header load_header(const std::uint8_t* p) noexcept {
+    header h;
+    h.type = static_cast<command_type>(p[0]);
+    h.serial = p[1];
+    h.destination_channel = p[2];
+    h.source_channel = p[3];
+    h.total = load_le16(p + 6);
+    return h;
+}
+
+namespace detail {
+constexpr bool known_type(std::uint8_t t) noexcept {
+    return t == static_cast<std::uint8_t>(command_type::command) ||
+           t == static_cast<std::uint8_t>(command_type::response) ||
+           t == static_cast<std::uint8_t>(command_type::general);
+}
+// The message's length from its first bytes: 0 = need more; no_message = none starts here.
+inline constexpr std::size_t no_message = static_cast<std::size_t>(-1);
+constexpr std::size_t expected_length(std::span<const std::uint8_t> p) noexcept {
+    if (p.empty()) return 0;
+    if (!known_type(p[0])) return no_message;
+    if (p.size() < header_size) return 0;
+    const std::size_t total = load_le16(p.data() + 6);
+    const bool general = p[0] == static_cast<std::uint8_t>(command_type::general);
+    const std::size_t least = general ? header_size : header_size + length_size + 1;
+    if (total < least || total > max_message) return no_message;
+    return total;
+}
+// A command or response whose MEMOBUS length agrees with the total.
+constexpr bool length_agrees(std::span<const std::uint8_t> m) noexcept {
+    if (m[0] == static_cast<std::uint8_t>(command_type::general)) return true;
+    return load_le16(m.data() + header_size) + header_size + length_size == m.size();
+}
+} // namespace detail
+
+// One UDP datagram as a message: its total length must be the datagram's (§6).
+inline result<header> parse_message(std::span<const std::uint8_t> datagram) noexcept {
+    const std::size_t n = detail::expected_length(datagram);
+    if (n == 0 || n == detail::no_message || n != datagram.size() ||
+        !detail::length_agrees(datagram))
+        return errc::malformed;
+    return load_header(datagram.data());
+}
+
+// Splits a TCP byte stream into messages; the step API of modbus::rtu_decoder. A header
+// with an unknown type, a total length below its minimum or above max_message (a length of
+// 65535, say), or a MEMOBUS length that does not agree is errc::malformed, reported once per
+// run; one byte is dropped and framing tried again from the next.
+class message_decoder {
+public:
+    enum class status : std::uint8_t { need_more, frame, error };
+    struct step {
+        status what = status::need_more;
+        std::size_t consumed = 0; // bytes of the input used; feed the rest again
+        std::error_code ec{};
+    };
+
+    step feed(std::span<const std::uint8_t> in) noexcept {
+        take_frame();
+        if (size_ > 0) {
+            const step s = scan();
+            if (s.what != status::need_more) return s;
+        }
+        std::size_t used = 0;
+        while (used < in.size()) {
+            // Bytes up to the end of the header, then up to the end of the message, at once.
+            const std::size_t want = wanted();
+            const std::size_t n = std::min(in.size() - used, want);
+            for (std::size_t i = 0; i < n; ++i) buf_[size_ + i] = in[used + i];
+            size_ += n;
+            used += n;
+            step s = scan();
+            if (s.what != status::need_more) {
+                s.consumed = used;
+                return s;
+            }
+        }
+        return {status::need_more, in.size(), {}};
+    }
+
+    // The message just yielded (valid until the next feed() or reset()).
+    std::span<const std::uint8_t> message() const noexcept { return {buf_.data(), frame_size_}; }
+    memobus::header header() const noexcept { return load_header(buf_.data()); }
+    // The MEMOBUS part: length field, MFC, SFC, CPU, body (commands and responses).
+    std::span<const std::uint8_t> body() const noexcept { return message().subspan(header_size); }
+
+    void reset() noexcept {
+        size_ = frame_size_ = 0;
+        garbage_ = false;
+    }
+    bool in_message() const noexcept { return size_ > frame_size_; }
+    std::size_t skipped() const noexcept { return skipped_; }
+
+private:
+    // Bytes still to read before scan() can say more.
+    std::size_t wanted() const noexcept {
+        if (size_ < header_size) return header_size - size_;
+        const std::size_t n = detail::expected_length({buf_.data(), size_});
+        return n == 0 || n == detail::no_message || n <= size_ ? 1 : n - size_;
+    }
+
+    void take_frame() noexcept {
+        if (frame_size_ == 0) return;
+        for (std::size_t i = frame_size_; i < size_; ++i) buf_[i - frame_size_] = buf_[i];
+        size_ -= frame_size_;
+        frame_size_ = 0;
+    }
+
+    bool drop() noexcept {
+        for (std::size_t i = 1; i < size_; ++i) buf_[i - 1] = buf_[i];
+        --size_;
+        ++skipped_;
+        const bool report = !garbage_;
+        garbage_ = true;
+        return report;
+    }
+
+    step scan() noexcept {
+        for (;;) {
+            if (size_ == 0) return {};
+            const std::size_t n = detail::expected_length({buf_.data(), size_});
+            if (n == 0) return {};
+            if (n == detail::no_message ||
+                (size_ >= n && !detail::length_agrees({buf_.data(), n}))) {
+                if (drop()) return {status::error, 0, errc::malformed};
+                continue;
+            }
+            if (size_ < n) return {};
+            frame_size_ = n;
+            garbage_ = false;
+            return {status::frame, 0, {}};
+        }
+    }
+
+    std::array<std::uint8_t, max_message> buf_{};
+    std::size_t size_ = 0;
+    std::size_t frame_size_ = 0;
+    std::size_t skipped_ = 0;
+    bool garbage_ = false;
+};
+
+} // namespace ferrule::memobus
