@@ -344,21 +344,20 @@ TEST_CASE("profibus slave: broken telegrams and other stations' traffic get no r
     CHECK(b.request(fdl_status_req)); // still answers after the garbage
 }
 
-// Found by fuzz/profibus_slave.cpp: an FDL_Status to 127 (FC 0x79) got the reply
+// Found by fuzz/profibus_slave.cpp: the FDL_Status 10 7F 15 79 0D 16 (to 127) got the reply
 // 10 15 08 00 1D 16, which every slave on the line would send at once.
 TEST_CASE("profibus slave: only Global_Control is taken from the broadcast address",
           "[profibus][slave]") {
     bench b;
     const auto broadcast = [](std::uint8_t fc, std::uint8_t dsap, const bytes& du) {
-        return telegram_bytes(broadcast_address, 21, fc, dsap,
-                              dsap == no_sap ? no_sap : master_sap, du);
+        return telegram_bytes(broadcast_address, 21, fc, dsap, dsap == no_sap ? no_sap : master_sap,
+                              du);
     };
     CHECK_FALSE(b.request(broadcast(0x79, no_sap, {})));
-    CHECK_FALSE(b.request(broadcast(request_code(request_fn::sda_high, false, false), no_sap,
-                                    {0x01})));
-    CHECK_FALSE(b.request(
-        broadcast(request_code(request_fn::srd_high, true, false),
-                  static_cast<std::uint8_t>(sap::slave_diag), {})));
+    CHECK_FALSE(
+        b.request(broadcast(request_code(request_fn::sda_high, false, false), no_sap, {0x01})));
+    CHECK_FALSE(b.request(broadcast(request_code(request_fn::srd_high, true, false),
+                                    static_cast<std::uint8_t>(sap::slave_diag), {})));
     CHECK(b.s.stats().not_ours == 3);
     CHECK(b.s.stats().replies == 0);
     b.bring_up();
