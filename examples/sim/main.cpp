@@ -24,6 +24,7 @@
 #include "ferrule/lecom/sim_station.hpp"
 #include "ferrule/movilink/sim_station.hpp"
 #include "modbus_sim.hpp"
+#include "profibus_gateway_sim.hpp"
 
 namespace {
 
@@ -292,6 +293,8 @@ int main(int argc, char** argv) {
                     "any free port)");
     mbs->add_flag("--tcp-only", o.tcp_only, "serve only over TCP, no pty (needs --tcp)");
     mbs->callback([&] { rc = serve_modbus(o); });
+
+    ferrule::sim_app::add_profibus_gateway(app, stop, rc);
 
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);

@@ -1,0 +1,335 @@
+// ferrule-sim profibus-gateway. One thread runs gateway::core on both of its lines, so the
+// core (sans-I/O, not thread-safe) needs no lock: it waits with one ppoll() on the DP pty and
+// the drive port until bytes come or the core's next deadline (a DP reply due, the DP
+// watchdog, a Modbus response timeout). The simulated drives, when there are any, run on
+// their own pty in a pty_server thread, exactly as `ferrule-sim modbus` serves them; the
+// gateway opens that pty as its drive port, so the simulated and a real drive line take the
+// same path through the code.
+//
+// A pty has no wire time and no baud rate: DP answers go out min_TSDR (11 tbit at --dp-baud)
+// after a request has been read, and the Modbus client waits no t3.5 before a request on the
+// internal pty (inter_frame_gap 0, as the modbus simulator and the CLI's --gap 0 do).
+#include "profibus_gateway_sim.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <pty.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <fmt/core.h>
+
+#include <asio/io_context.hpp>
+#include <asio/serial_port.hpp>
+
+#include <array>
+#include <cctype>
+#include <cerrno>
+#include <cstdio>
+#include <ctime>
+#include <deque>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ferrule/asio/pty_server.hpp"
+#include "ferrule/asio/serial_port.hpp"
+#include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/gateway/gateway.hpp"
+#include "ferrule/modbus/constants.hpp"
+#include "ferrule/modbus/sim_station.hpp"
+#include "ferrule/profibus/services.hpp"
+
+namespace ferrule::sim_app {
+namespace {
+
+namespace mb = ferrule::modbus;
+namespace pb = ferrule::profibus;
+
+struct gateway_options {
+    std::string link;
+    unsigned address = 8;
+    unsigned ident = 0x0815;
+    std::uint32_t dp_baud = 19'200;
+    std::string mode = "transparent";
+    std::string cfg = "24 14";
+    bool status_word = false;
+    unsigned drive_unit = 1;
+    std::string drive_port;
+    std::uint32_t drive_baud = 19'200;
+};
+
+// "24 14", "2414", "0x24,0x14": configuration identifier bytes.
+bool parse_hex(const std::string& text, std::vector<std::uint8_t>& out) {
+    std::string digits;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char ch = text[i];
+        if (ch == '0' && i + 1 < text.size() && (text[i + 1] == 'x' || text[i + 1] == 'X')) {
+            ++i;
+            continue;
+        }
+        if (std::isxdigit(static_cast<unsigned char>(ch)))
+            digits += ch;
+        else if (ch != ' ' && ch != ',' && ch != ':')
+            return false;
+    }
+    if (digits.empty() || digits.size() % 2 != 0) return false;
+    for (std::size_t i = 0; i < digits.size(); i += 2)
+        out.push_back(static_cast<std::uint8_t>(std::stoul(digits.substr(i, 2), nullptr, 16)));
+    return true;
+}
+
+std::string hex(std::span<const std::uint8_t> bytes) {
+    std::string s;
+    for (const auto b : bytes) s += fmt::format("{}{:02X}", s.empty() ? "" : " ", b);
+    return s;
+}
+
+// The DP side's pseudo-terminal: raw, the master side non-blocking, an optional symlink.
+class dp_pty {
+public:
+    dp_pty() = default;
+    dp_pty(const dp_pty&) = delete;
+    dp_pty& operator=(const dp_pty&) = delete;
+    ~dp_pty() {
+        if (!link_.empty()) ::unlink(link_.c_str());
+        if (master_ >= 0) ::close(master_);
+        if (slave_ >= 0) ::close(slave_);
+    }
+
+    std::error_code open(const std::string& link) {
+        std::array<char, 256> name{};
+        if (::openpty(&master_, &slave_, name.data(), nullptr, nullptr) != 0)
+            return {errno, std::generic_category()};
+        path_ = name.data();
+        for (int fd : {master_, slave_}) {
+            termios t{};
+            ::tcgetattr(fd, &t);
+            ::cfmakeraw(&t);
+            ::tcsetattr(fd, TCSANOW, &t);
+        }
+        ::fcntl(master_, F_SETFL, ::fcntl(master_, F_GETFL) | O_NONBLOCK);
+        if (link.empty()) return {};
+        ::unlink(link.c_str());
+        if (::symlink(path_.c_str(), link.c_str()) != 0) return {errno, std::generic_category()};
+        link_ = link;
+        return {};
+    }
+
+    int fd() const noexcept { return master_; }
+    const std::string& path() const noexcept { return path_; }
+
+    void write(std::span<const std::uint8_t> bytes) const {
+        std::size_t off = 0;
+        while (off < bytes.size()) {
+            const ssize_t n = ::write(master_, bytes.data() + off, bytes.size() - off);
+            if (n > 0) {
+                off += static_cast<std::size_t>(n);
+            } else if (errno == EAGAIN) {
+                pollfd p{master_, POLLOUT, 0};
+                ::poll(&p, 1, 10);
+            } else {
+                return; // no reader: the telegram is lost, as on an open line
+            }
+        }
+    }
+
+private:
+    int master_ = -1;
+    int slave_ = -1;
+    std::string path_;
+    std::string link_;
+};
+
+// Simulated VFDs on their own pty, served by a thread until the object goes.
+class simulated_drives {
+public:
+    explicit simulated_drives(unsigned unit) {
+        mb::server_config cfg;
+        cfg.units = mb::unit_set{static_cast<std::uint8_t>(unit)};
+        // A pty has no wire time: frames end after t3.5 of a fast line (1.75 ms).
+        cfg.format = {host::pty_line_baud, 8, parity::even, 1};
+        drives_.emplace_back(cfg);
+        for (auto& d : drives_) server_.add(d);
+    }
+    simulated_drives(const simulated_drives&) = delete;
+    simulated_drives& operator=(const simulated_drives&) = delete;
+    ~simulated_drives() {
+        done_ = true;
+        if (thread_.joinable()) thread_.join();
+    }
+
+    std::error_code start() {
+        if (auto ec = server_.open()) return ec;
+        thread_ = std::thread([this] { server_.run(done_); });
+        return {};
+    }
+    const std::string& path() const noexcept { return server_.path(); }
+
+private:
+    std::deque<mb::sim::station> drives_;
+    host::pty_server<mb::sim::station> server_{};
+    std::atomic<bool> done_{false};
+    std::thread thread_;
+};
+
+// Both lines of the gateway in one loop, until `stop` or until the drive line hangs up (a
+// --drive-port whose simulator has ended): false then.
+bool run_lines(gateway::core& gw, const dp_pty& dp, host::serial_stream& drive, int drive_fd,
+               const std::atomic<bool>& stop) {
+    std::array<std::uint8_t, 256> buf{};
+    while (!stop.load(std::memory_order_relaxed)) {
+        const time_point now = host::steady_now();
+        for (session_action a = gw.next_dp(now); a.what == session_action::kind::send;
+             a = gw.next_dp(now))
+            dp.write(a.bytes);
+        session_action m = gw.next_modbus(now);
+        for (; m.what == session_action::kind::send; m = gw.next_modbus(now)) {
+            if (m.discard_input) drive.discard_input();
+            if (const io_result w = drive.write(m.bytes); w.ec) gw.on_modbus_error(w.ec);
+        }
+        time_point until = std::min(now + std::chrono::milliseconds(50), gw.dp_wake_at());
+        if (m.what == session_action::kind::wait) until = std::min(until, m.deadline);
+        const auto wait = std::max(until - now, duration::zero()).count();
+        const ::timespec ts{static_cast<::time_t>(wait / 1'000'000'000),
+                            static_cast<long>(wait % 1'000'000'000)};
+        std::array<pollfd, 2> fds{{{dp.fd(), POLLIN, 0}, {drive_fd, POLLIN, 0}}};
+        if (::ppoll(fds.data(), fds.size(), &ts, nullptr) <= 0) continue;
+        if (fds[0].revents & POLLIN) {
+            const ssize_t n = ::read(dp.fd(), buf.data(), buf.size());
+            if (n > 0)
+                gw.on_dp_receive({buf.data(), static_cast<std::size_t>(n)}, host::steady_now());
+        }
+        if (fds[1].revents != 0) {
+            io_result r{};
+            if (fds[1].revents & POLLIN) r = drive.read_some(buf, host::steady_now());
+            if (r.bytes > 0)
+                gw.on_modbus_receive({buf.data(), r.bytes}, host::steady_now());
+            else if (fds[1].revents & (POLLHUP | POLLERR | POLLNVAL))
+                return false;
+            else if (r.ec && r.ec != make_error_code(errc::timeout))
+                gw.on_modbus_error(r.ec);
+        }
+    }
+    return true;
+}
+
+int serve_gateway(const gateway_options& o, const std::atomic<bool>& stop) {
+    std::vector<std::uint8_t> cfg_bytes;
+    if (!parse_hex(o.cfg, cfg_bytes))
+        throw CLI::ValidationError("--cfg", "configuration identifiers as hex bytes, e.g. 24 14");
+    const auto sizes = pb::cfg_io_sizes(cfg_bytes);
+    if (!sizes || sizes->inputs > pb::slave::max_io || sizes->outputs > pb::slave::max_io)
+        throw CLI::ValidationError("--cfg", "not a valid DP configuration of at most 246 bytes "
+                                            "each way");
+
+    std::unique_ptr<simulated_drives> sim;
+    std::string drive_path = o.drive_port;
+    if (drive_path.empty()) {
+        sim = std::make_unique<simulated_drives>(o.drive_unit);
+        if (auto ec = sim->start()) {
+            fmt::print(stderr, "ferrule-sim: openpty: {}\n", ec.message());
+            return 3;
+        }
+        drive_path = sim->path();
+    }
+
+    gateway::config gc;
+    gc.dp.baud = o.dp_baud;
+    gc.dp.address = static_cast<std::uint8_t>(o.address);
+    gc.dp.ident = static_cast<std::uint16_t>(o.ident);
+    gc.dp.cfg = cfg_bytes;
+    gc.modbus.format = {o.drive_baud, 8, parity::even, 1};
+    gc.modbus.inter_frame_gap = sim ? duration::zero() : mb::t35(gc.modbus.format);
+    gc.mode = gateway::mode::transparent;
+    gc.drive = static_cast<std::uint8_t>(o.drive_unit);
+    gc.status_word = o.status_word;
+
+    asio::io_context ctx;
+    asio::serial_port port(ctx);
+    host::serial_options so;
+    so.format = gc.modbus.format;
+    // The internal pty takes no baud rate or parity; only a port the user gave is worth a word.
+    const auto warn = [&](std::string_view text) {
+        if (!sim) fmt::print(stderr, "ferrule-sim: warning: {}\n", text);
+    };
+    if (auto ec = host::open_serial(port, drive_path, so, warn)) {
+        fmt::print(stderr, "ferrule-sim: --drive-port: {}\n",
+                   host::open_error_message(drive_path, ec));
+        return 3;
+    }
+    host::serial_stream drive(ctx, port);
+
+    dp_pty dp;
+    if (auto ec = dp.open(o.link)) {
+        fmt::print(stderr, "ferrule-sim: {}: {}\n", o.link.empty() ? "openpty" : "--link " + o.link,
+                   ec.message());
+        return 3;
+    }
+    gateway::core gw(gc);
+    fmt::print("{}\n", o.link.empty() ? dp.path() : o.link);
+    std::fflush(stdout);
+    fmt::print(stderr,
+               "ferrule-sim: PROFIBUS-DP gateway, slave {} (ident 0x{:04X}, cfg {}: {} bytes out, "
+               "{} in{}) on {}{}; transparent to Modbus unit {} on {}{}; Ctrl-C to stop\n",
+               o.address, o.ident, hex(cfg_bytes), sizes->outputs, sizes->inputs,
+               o.status_word ? ", status word first" : "", dp.path(),
+               o.link.empty() ? "" : " (link " + o.link + ")", o.drive_unit, drive_path,
+               sim ? " (a simulated VFD)" : "");
+    const bool stopped = run_lines(gw, dp, drive, port.native_handle(), stop);
+    if (!stopped) fmt::print(stderr, "ferrule-sim: the drive line {} hung up\n", drive_path);
+
+    const auto& d = gw.dp().stats();
+    const auto& s = gw.stats();
+    fmt::print(stderr,
+               "ferrule-sim: DP: {} requests, {} data exchanges, {} Prm faults, {} Cfg faults; "
+               "Modbus: {} commands, {} delivered, {} failed, {} exceptions, {} overflowed\n",
+               d.requests, d.data_exchanges, d.prm_faults, d.cfg_faults, s.commands, s.delivered,
+               s.failed, s.exceptions, s.overflowed);
+    return stopped ? 0 : 3;
+}
+
+} // namespace
+
+void add_profibus_gateway(CLI::App& app, const std::atomic<bool>& stop, int& rc) {
+    auto o = std::make_shared<gateway_options>();
+    auto* sub = app.add_subcommand(
+        "profibus-gateway",
+        "a PROFIBUS-DP slave on a pty that passes Modbus requests to a drive line (transparent "
+        "mode): simulated VFDs, or --drive-port");
+    sub->add_option("--link", o->link, "also create this symlink to the DP pty (removed on exit)");
+    sub->add_option("--address,-a", o->address, "DP station address (0-126)")
+        ->check(CLI::Range(0, 126))
+        ->capture_default_str();
+    sub->add_option("--ident", o->ident,
+                    "Ident_Number (0x0001-0xFFFE), as in examples/gateway/ferrule_gateway.gsd")
+        ->check(CLI::Range(0x0001, 0xFFFE))
+        ->default_str("0x0815");
+    sub->add_option("--dp-baud", o->dp_baud, "DP baud rate (sets the reply delay min_TSDR)")
+        ->check(CLI::IsMember({9'600, 19'200, 45'450, 93'750, 187'500, 500'000, 1'500'000,
+                               3'000'000, 6'000'000, 12'000'000}))
+        ->capture_default_str();
+    sub->add_option("--mode", o->mode, "transparent: the DP outputs carry a Modbus request PDU")
+        ->check(CLI::IsMember({"transparent"}))
+        ->capture_default_str();
+    sub->add_option("--cfg", o->cfg,
+                    "configuration identifiers (Chk_Cfg), hex; the GSD's modules: 24 14 = 5 bytes "
+                    "out, 5 in")
+        ->capture_default_str();
+    sub->add_flag("--status-word", o->status_word,
+                  "the first two input bytes are the gateway's status word (GSD: the status "
+                  "word modules)");
+    sub->add_option("--drive-unit", o->drive_unit, "Modbus unit of the drive (1-247)")
+        ->check(CLI::Range(1, 247))
+        ->capture_default_str();
+    sub->add_option("--drive-port", o->drive_port,
+                    "the drive line: a serial port or a `ferrule-sim modbus` pty (default: a "
+                    "simulated VFD on an internal pty)");
+    sub->add_option("--drive-baud", o->drive_baud, "drive line baud rate (8E1)")
+        ->check(CLI::IsMember({1'200, 2'400, 4'800, 9'600, 19'200, 38'400, 57'600, 115'200}))
+        ->capture_default_str();
+    sub->callback([o, &stop, &rc] { rc = serve_gateway(*o, stop); });
+}
+
+} // namespace ferrule::sim_app
