@@ -15,6 +15,7 @@
 #include <span>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include "ferrule/asio/serial_port.hpp"
 #include "ferrule/asio/serial_stream.hpp"
@@ -52,6 +53,12 @@ void add_common_options(CLI::App& app, common_options& o, unsigned default_addre
 result<serial_format> resolve_format(const common_options& o, serial_format manual_default);
 
 std::string hex(std::span<const std::uint8_t> bytes);
+// "02 01 05", "020105", "02:01:05", "0x02,0x01": the bytes (appended to `out`); false for
+// anything else or an odd number of digits.
+bool parse_hex(std::span<const std::string> words, std::vector<std::uint8_t>& out);
+inline bool parse_hex(const std::string& text, std::vector<std::uint8_t>& out) {
+    return parse_hex(std::span<const std::string>(&text, 1), out);
+}
 
 // The --trace printer: each chunk with its time since `t0`, direction and hex, on stderr.
 host::tap_handler trace_tap(time_point t0);

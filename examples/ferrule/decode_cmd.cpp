@@ -27,27 +27,6 @@ namespace {
 namespace ml = ferrule::movilink;
 namespace dx = ferrule::dimetix;
 
-// "02 01 05", "020105", "02:01:05" and "0x02 0x01" all read the same.
-bool parse_hex(const std::vector<std::string>& words, std::vector<std::uint8_t>& out) {
-    std::string digits;
-    for (const auto& w : words)
-        for (std::size_t i = 0; i < w.size(); ++i) {
-            const char ch = w[i];
-            if (ch == '0' && i + 1 < w.size() && (w[i + 1] == 'x' || w[i + 1] == 'X')) {
-                ++i;
-                continue;
-            }
-            if (std::isxdigit(static_cast<unsigned char>(ch)))
-                digits += ch;
-            else if (ch != ' ' && ch != ':' && ch != ',' && ch != '-')
-                return false;
-        }
-    if (digits.size() % 2 != 0) return false;
-    for (std::size_t i = 0; i < digits.size(); i += 2)
-        out.push_back(static_cast<std::uint8_t>(std::stoul(digits.substr(i, 2), nullptr, 16)));
-    return true;
-}
-
 void print_movilink_frame(const decode_options& o, std::size_t offset,
                           std::span<const std::uint8_t> f) {
     const ml::telegram t = *ml::parse(f);

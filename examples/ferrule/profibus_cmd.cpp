@@ -18,11 +18,13 @@
 #include "ferrule/profibus/error.hpp"
 #include "ferrule/profibus/master.hpp"
 #include "ferrule/profibus/services.hpp"
+#include "profibus_text.hpp"
 
 namespace ferrule::cli {
 namespace {
 
 namespace pb = ferrule::profibus;
+using namespace ferrule::cli::profibus_text;
 
 struct profibus_options {
     common_options common;
@@ -37,65 +39,6 @@ struct profibus_options {
     unsigned interval_ms = 100;
     bool no_init = false;
 };
-
-struct flag {
-    std::uint8_t bit;
-    const char* name;
-};
-
-// Slave_Diag (§B.5), named as `ferrule decode profibus` names them.
-constexpr flag station_status_1[] = {{pb::diag::station_non_existent, "Station_Non_Existent"},
-                                     {pb::diag::station_not_ready, "Station_Not_Ready"},
-                                     {pb::diag::cfg_fault, "Cfg_Fault"},
-                                     {pb::diag::ext_diag, "Ext_Diag"},
-                                     {pb::diag::not_supported, "Not_Supported"},
-                                     {pb::diag::invalid_slave_response, "Invalid_Slave_Response"},
-                                     {pb::diag::prm_fault, "Prm_Fault"},
-                                     {pb::diag::master_lock, "Master_Lock"}};
-constexpr flag station_status_2[] = {
-    {pb::diag::prm_req, "Prm_Req"},         {pb::diag::stat_diag, "Stat_Diag"},
-    {pb::diag::always_one, "always 1"},     {pb::diag::wd_on, "WD_On"},
-    {pb::diag::freeze_mode, "Freeze_Mode"}, {pb::diag::sync_mode, "Sync_Mode"},
-    {pb::diag::deactivated, "Deactivated"}};
-constexpr flag station_status_3[] = {{pb::diag::ext_diag_overflow, "Ext_Diag_Overflow"}};
-
-std::vector<std::string> bit_names(std::uint8_t b, std::span<const flag> flags) {
-    std::vector<std::string> out;
-    for (unsigned i = 0; i < 8; ++i) {
-        const auto bit = static_cast<std::uint8_t>(1u << i);
-        if (!(b & bit)) continue;
-        const auto f =
-            std::find_if(flags.begin(), flags.end(), [bit](const flag& x) { return x.bit == bit; });
-        out.push_back(f != flags.end() ? f->name : fmt::format("bit {}", i));
-    }
-    return out;
-}
-
-std::string join(const std::vector<std::string>& v) {
-    std::string s;
-    for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
-    return s.empty() ? "-" : s;
-}
-
-// "06 C8 00 00 25", "06C8000025", "0x06,0xC8": bytes; false for anything else.
-bool parse_hex(const std::string& text, std::vector<std::uint8_t>& out) {
-    std::string digits;
-    for (std::size_t i = 0; i < text.size(); ++i) {
-        const char ch = text[i];
-        if (ch == '0' && i + 1 < text.size() && (text[i + 1] == 'x' || text[i + 1] == 'X')) {
-            ++i;
-            continue;
-        }
-        if (std::isxdigit(static_cast<unsigned char>(ch)))
-            digits += ch;
-        else if (ch != ' ' && ch != ',' && ch != ':' && ch != '-')
-            return false;
-    }
-    if (digits.size() % 2 != 0) return false;
-    for (std::size_t i = 0; i < digits.size(); i += 2)
-        out.push_back(static_cast<std::uint8_t>(std::stoul(digits.substr(i, 2), nullptr, 16)));
-    return true;
-}
 
 pb::master_config master_config(const profibus_options& o, const serial_format& f) {
     pb::master_config c;
