@@ -33,35 +33,6 @@ result<serial_format> resolve_format(const common_options& o, serial_format manu
     return f;
 }
 
-std::string hex(std::span<const std::uint8_t> bytes) {
-    std::string s;
-    for (std::size_t i = 0; i < bytes.size(); ++i) {
-        if (i) s += ' ';
-        s += fmt::format("{:02X}", bytes[i]);
-    }
-    return s;
-}
-
-bool parse_hex(std::span<const std::string> words, std::vector<std::uint8_t>& out) {
-    std::string digits;
-    for (const auto& w : words)
-        for (std::size_t i = 0; i < w.size(); ++i) {
-            const char ch = w[i];
-            if (ch == '0' && i + 1 < w.size() && (w[i + 1] == 'x' || w[i + 1] == 'X')) {
-                ++i;
-                continue;
-            }
-            if (std::isxdigit(static_cast<unsigned char>(ch)))
-                digits += ch;
-            else if (ch != ' ' && ch != ':' && ch != ',' && ch != '-')
-                return false;
-        }
-    if (digits.size() % 2 != 0) return false;
-    for (std::size_t i = 0; i < digits.size(); i += 2)
-        out.push_back(static_cast<std::uint8_t>(std::stoul(digits.substr(i, 2), nullptr, 16)));
-    return true;
-}
-
 // For text protocols (Dimetix): the bytes as text too, with CR and LF escaped.
 std::string ascii_suffix(std::span<const std::uint8_t> bytes) {
     std::string text;

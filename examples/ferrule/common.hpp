@@ -17,6 +17,7 @@
 #include <system_error>
 #include <vector>
 
+#include "../common/hex.hpp"
 #include "ferrule/asio/serial_port.hpp"
 #include "ferrule/asio/serial_stream.hpp"
 #include "ferrule/core/serial_format.hpp"
@@ -52,13 +53,8 @@ void add_common_options(CLI::App& app, common_options& o, unsigned default_addre
 // The serial format from --format / --baud over the protocol's manual default.
 result<serial_format> resolve_format(const common_options& o, serial_format manual_default);
 
-std::string hex(std::span<const std::uint8_t> bytes);
-// "02 01 05", "020105", "02:01:05", "0x02,0x01": the bytes (appended to `out`); false for
-// anything else or an odd number of digits.
-bool parse_hex(std::span<const std::string> words, std::vector<std::uint8_t>& out);
-inline bool parse_hex(const std::string& text, std::vector<std::uint8_t>& out) {
-    return parse_hex(std::span<const std::string>(&text, 1), out);
-}
+using tools::hex;
+using tools::parse_hex;
 
 // The --trace printer: each chunk with its time since `t0`, direction and hex, on stderr.
 host::tap_handler trace_tap(time_point t0);

@@ -33,6 +33,7 @@
 #include <thread>
 #include <vector>
 
+#include "../common/hex.hpp"
 #include "ferrule/asio/pty_server.hpp"
 #include "ferrule/asio/serial_port.hpp"
 #include "ferrule/asio/serial_stream.hpp"
@@ -60,31 +61,8 @@ struct gateway_options {
     std::uint32_t drive_baud = 19'200;
 };
 
-// "24 14", "2414", "0x24,0x14": configuration identifier bytes.
-bool parse_hex(const std::string& text, std::vector<std::uint8_t>& out) {
-    std::string digits;
-    for (std::size_t i = 0; i < text.size(); ++i) {
-        const char ch = text[i];
-        if (ch == '0' && i + 1 < text.size() && (text[i + 1] == 'x' || text[i + 1] == 'X')) {
-            ++i;
-            continue;
-        }
-        if (std::isxdigit(static_cast<unsigned char>(ch)))
-            digits += ch;
-        else if (ch != ' ' && ch != ',' && ch != ':')
-            return false;
-    }
-    if (digits.empty() || digits.size() % 2 != 0) return false;
-    for (std::size_t i = 0; i < digits.size(); i += 2)
-        out.push_back(static_cast<std::uint8_t>(std::stoul(digits.substr(i, 2), nullptr, 16)));
-    return true;
-}
-
-std::string hex(std::span<const std::uint8_t> bytes) {
-    std::string s;
-    for (const auto b : bytes) s += fmt::format("{}{:02X}", s.empty() ? "" : " ", b);
-    return s;
-}
+using tools::hex;
+using tools::parse_hex;
 
 // The DP side's pseudo-terminal: raw, the master side non-blocking, an optional symlink.
 class dp_pty {
