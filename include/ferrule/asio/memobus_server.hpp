@@ -20,7 +20,7 @@
 //     (and counted), as a datagram may be
 //   * replies are sent straight from the session's buffer; only the part a TCP socket does
 //     not take at once is copied to wait for it, and a master that does not read its replies
-//     is not read from while `backlog_limit` bytes of them wait
+//     is not read from while reply_writer::backlog_limit bytes of them wait
 //
 // One io_context thread runs the server; the image is only touched from it (post to it).
 // Statistics, the server's and each channel's, are atomics readable from any thread.
@@ -43,6 +43,7 @@
 #include <utility>
 #include <vector>
 
+#include "ferrule/asio/reply_writer.hpp"
 #include "ferrule/asio/serial_stream.hpp"
 #include "ferrule/memobus/header.hpp"
 #include "ferrule/memobus/server.hpp"
@@ -87,8 +88,6 @@ struct memobus_channel_stats {
 template <class Image>
 class memobus_server {
 public:
-    static constexpr std::size_t backlog_limit = 16 * 1024;
-
     memobus_server(::asio::any_io_executor ex, Image& image, memobus_server_options o = {})
         : acceptor_(ex), udp_(ex), image_(image), options_(std::move(o)),
           slots_(std::make_unique<slot[]>(options_.max_channels)) {}
@@ -278,34 +277,16 @@ private:
             if (rx_pos_ == rx_size_ && !reading_ && !backlogged() && socket_.is_open()) read();
         }
 
-        // The socket is non-blocking: what it does not take now is written from `writing_`;
-        // replies due meanwhile queue in `queued_`, so that the byte order stays.
         void send(std::span<const std::uint8_t> bytes) {
-            if (!writing_.empty()) {
-                queued_.insert(queued_.end(), bytes.begin(), bytes.end());
-                return;
-            }
-            std::error_code ec;
-            const std::size_t n = socket_.send(::asio::buffer(bytes.data(), bytes.size()), 0, ec);
-            if (ec && ec != ::asio::error::would_block) return end(false);
-            bytes = bytes.subspan(ec ? 0 : n);
-            if (bytes.empty()) return;
-            writing_.assign(bytes.begin(), bytes.end());
-            flush();
+            const auto ec =
+                writer_.send(bytes, this->shared_from_this(), [this](std::error_code e) {
+                    if (e) return end(false);
+                    feed();
+                });
+            if (ec) end(false);
         }
 
-        void flush() {
-            ::asio::async_write(socket_, ::asio::buffer(writing_),
-                                [self = this->shared_from_this()](std::error_code ec, std::size_t) {
-                                    if (ec) return self->end(false);
-                                    self->writing_.clear();
-                                    std::swap(self->writing_, self->queued_);
-                                    if (!self->writing_.empty()) return self->flush();
-                                    self->feed();
-                                });
-        }
-
-        bool backlogged() const noexcept { return queued_.size() >= backlog_limit; }
+        bool backlogged() const noexcept { return writer_.backlogged(); }
 
         void arm_idle() {
             if (owner_.options_.idle_timeout == duration::zero()) return;
@@ -340,8 +321,7 @@ private:
         std::size_t rx_size_ = 0;
         bool reading_ = false;
         std::array<std::uint8_t, memobus::max_message> tx_{};
-        std::vector<std::uint8_t> writing_;
-        std::vector<std::uint8_t> queued_;
+        reply_writer<::asio::ip::tcp::socket> writer_{socket_};
         time_point last_activity_{};
     };
 

@@ -30,6 +30,7 @@
 #include <system_error>
 #include <vector>
 
+#include "ferrule/asio/reply_writer.hpp"
 #include "ferrule/asio/serial_stream.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/modbus/data_model.hpp"
@@ -180,36 +181,16 @@ private:
             }
         }
 
-        // The socket is non-blocking: what it does not take now is written from `writing_`;
-        // replies due meanwhile queue in `queued_`, so that the byte order stays. A client
-        // that sends requests without reading the replies is not read from while
-        // `backlog_limit` bytes of replies wait for it (see feed()).
         void send(std::span<const std::uint8_t> bytes) {
-            if (!writing_.empty()) {
-                queued_.insert(queued_.end(), bytes.begin(), bytes.end());
-                return;
-            }
-            std::error_code ec;
-            const std::size_t n = socket_.send(::asio::buffer(bytes.data(), bytes.size()), 0, ec);
-            if (ec && ec != ::asio::error::would_block) return end(false);
-            bytes = bytes.subspan(ec ? 0 : n);
-            if (bytes.empty()) return;
-            writing_.assign(bytes.begin(), bytes.end());
-            flush();
+            const auto ec =
+                writer_.send(bytes, this->shared_from_this(), [this](std::error_code e) {
+                    if (e) return end(false);
+                    feed();
+                });
+            if (ec) end(false);
         }
 
-        void flush() {
-            ::asio::async_write(socket_, ::asio::buffer(writing_),
-                                [self = this->shared_from_this()](std::error_code ec, std::size_t) {
-                                    if (ec) return self->end(false);
-                                    self->writing_.clear();
-                                    std::swap(self->writing_, self->queued_);
-                                    if (!self->writing_.empty()) return self->flush();
-                                    self->feed();
-                                });
-        }
-
-        bool backlogged() const noexcept { return queued_.size() >= backlog_limit; }
+        bool backlogged() const noexcept { return writer_.backlogged(); }
 
         void arm_idle() {
             if (owner_.options_.idle_timeout == duration::zero()) return;
@@ -241,9 +222,7 @@ private:
         std::size_t rx_pos_ = 0;
         std::size_t rx_size_ = 0;
         bool reading_ = false;
-        static constexpr std::size_t backlog_limit = 16 * 1024;
-        std::vector<std::uint8_t> writing_;
-        std::vector<std::uint8_t> queued_;
+        reply_writer<::asio::ip::tcp::socket> writer_{socket_};
         time_point last_activity_{};
     };
 
