@@ -11,10 +11,7 @@
 // internal pty (inter_frame_gap 0, as the modbus simulator and the CLI's --gap 0 do).
 #include "profibus_gateway_sim.hpp"
 
-#include <fcntl.h>
 #include <poll.h>
-#include <pty.h>
-#include <termios.h>
 #include <unistd.h>
 
 #include <fmt/core.h>
@@ -64,62 +61,6 @@ struct gateway_options {
 using tools::hex;
 using tools::parse_hex;
 
-// The DP side's pseudo-terminal: raw, the master side non-blocking, an optional symlink.
-class dp_pty {
-public:
-    dp_pty() = default;
-    dp_pty(const dp_pty&) = delete;
-    dp_pty& operator=(const dp_pty&) = delete;
-    ~dp_pty() {
-        if (!link_.empty()) ::unlink(link_.c_str());
-        if (master_ >= 0) ::close(master_);
-        if (slave_ >= 0) ::close(slave_);
-    }
-
-    std::error_code open(const std::string& link) {
-        std::array<char, 256> name{};
-        if (::openpty(&master_, &slave_, name.data(), nullptr, nullptr) != 0)
-            return {errno, std::generic_category()};
-        path_ = name.data();
-        for (int fd : {master_, slave_}) {
-            termios t{};
-            ::tcgetattr(fd, &t);
-            ::cfmakeraw(&t);
-            ::tcsetattr(fd, TCSANOW, &t);
-        }
-        ::fcntl(master_, F_SETFL, ::fcntl(master_, F_GETFL) | O_NONBLOCK);
-        if (link.empty()) return {};
-        ::unlink(link.c_str());
-        if (::symlink(path_.c_str(), link.c_str()) != 0) return {errno, std::generic_category()};
-        link_ = link;
-        return {};
-    }
-
-    int fd() const noexcept { return master_; }
-    const std::string& path() const noexcept { return path_; }
-
-    void write(std::span<const std::uint8_t> bytes) const {
-        std::size_t off = 0;
-        while (off < bytes.size()) {
-            const ssize_t n = ::write(master_, bytes.data() + off, bytes.size() - off);
-            if (n > 0) {
-                off += static_cast<std::size_t>(n);
-            } else if (errno == EAGAIN) {
-                pollfd p{master_, POLLOUT, 0};
-                ::poll(&p, 1, 10);
-            } else {
-                return; // no reader: the telegram is lost, as on an open line
-            }
-        }
-    }
-
-private:
-    int master_ = -1;
-    int slave_ = -1;
-    std::string path_;
-    std::string link_;
-};
-
 // Simulated VFDs on their own pty, served by a thread until the object goes.
 class simulated_drives {
 public:
@@ -154,14 +95,14 @@ private:
 
 // Both lines of the gateway in one loop, until `stop` or until the drive line hangs up (a
 // --drive-port whose simulator has ended): false then.
-bool run_lines(gateway::core& gw, const dp_pty& dp, host::serial_stream& drive, int drive_fd,
-               const std::atomic<bool>& stop) {
+bool run_lines(gateway::core& gw, const host::pseudo_terminal& dp, host::serial_stream& drive,
+               int drive_fd, const std::atomic<bool>& stop) {
     std::array<std::uint8_t, 256> buf{};
     while (!stop.load(std::memory_order_relaxed)) {
         const time_point now = host::steady_now();
         for (session_action a = gw.next_dp(now); a.what == session_action::kind::send;
              a = gw.next_dp(now))
-            dp.write(a.bytes);
+            (void)dp.write(a.bytes); // no reader: lost, as on an open line
         session_action m = gw.next_modbus(now);
         for (; m.what == session_action::kind::send; m = gw.next_modbus(now)) {
             if (m.discard_input) drive.discard_input();
@@ -239,8 +180,10 @@ int serve_gateway(const gateway_options& o, const std::atomic<bool>& stop) {
     }
     host::serial_stream drive(ctx, port);
 
-    dp_pty dp;
-    if (auto ec = dp.open(o.link)) {
+    host::pseudo_terminal dp;
+    std::error_code opened = dp.open();
+    if (!opened && !o.link.empty()) opened = dp.link(o.link);
+    if (auto ec = opened) {
         fmt::print(stderr, "ferrule-sim: {}: {}\n", o.link.empty() ? "openpty" : "--link " + o.link,
                    ec.message());
         return 3;

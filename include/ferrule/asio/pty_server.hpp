@@ -8,10 +8,7 @@
 // A pty has no baud rate: bytes arrive as fast as the master writes them.
 #pragma once
 
-#include <fcntl.h>
 #include <poll.h>
-#include <pty.h>
-#include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -26,6 +23,7 @@
 #include <system_error>
 #include <vector>
 
+#include "ferrule/asio/pseudo_terminal.hpp"
 #include "ferrule/asio/serial_stream.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
@@ -57,40 +55,12 @@ public:
     explicit pty_server(pty_faults faults = {}) : faults_(faults), rng_(faults.seed) {}
     pty_server(const pty_server&) = delete;
     pty_server& operator=(const pty_server&) = delete;
-    ~pty_server() {
-        if (!link_.empty()) ::unlink(link_.c_str());
-        if (master_ >= 0) ::close(master_);
-        if (slave_ >= 0) ::close(slave_);
-    }
-
     // Creates the pty; path() is then the device to open.
-    std::error_code open() {
-        std::array<char, 256> name{};
-        if (::openpty(&master_, &slave_, name.data(), nullptr, nullptr) != 0)
-            return {errno, std::generic_category()};
-        path_ = name.data();
-        // Raw on both sides: no echo, no line editing, 8-bit clean. The server keeps the slave
-        // side open so the master side does not hang up between clients.
-        for (int fd : {master_, slave_}) {
-            termios t{};
-            ::tcgetattr(fd, &t);
-            ::cfmakeraw(&t);
-            ::tcsetattr(fd, TCSANOW, &t);
-        }
-        ::fcntl(master_, F_SETFL, ::fcntl(master_, F_GETFL) | O_NONBLOCK);
-        return {};
-    }
-
+    std::error_code open() { return pty_.open(); }
     // A stable name for the device: a symlink to path(), removed with the server.
-    std::error_code link(const std::string& link_path) {
-        ::unlink(link_path.c_str());
-        if (::symlink(path_.c_str(), link_path.c_str()) != 0)
-            return {errno, std::generic_category()};
-        link_ = link_path;
-        return {};
-    }
+    std::error_code link(const std::string& link_path) { return pty_.link(link_path); }
 
-    const std::string& path() const noexcept { return path_; }
+    const std::string& path() const noexcept { return pty_.path(); }
     void add(Station& station) { stations_.push_back(&station); }
     const pty_stats& stats() const noexcept { return stats_; }
 
@@ -107,12 +77,12 @@ public:
             const session_action a = st->next(now);
             if (a.what == session_action::kind::wait) due = std::min(due, a.deadline);
         }
-        pollfd p{master_, POLLIN, 0};
+        pollfd p{pty_.fd(), POLLIN, 0};
         const auto wait_ms = std::chrono::ceil<std::chrono::milliseconds>(due - now).count();
         if (::poll(&p, 1, static_cast<int>(std::max<decltype(wait_ms)>(wait_ms, 0))) > 0 &&
             (p.revents & POLLIN)) {
             std::array<std::uint8_t, 256> buf{};
-            const ssize_t n = ::read(master_, buf.data(), buf.size());
+            const ssize_t n = ::read(pty_.fd(), buf.data(), buf.size());
             if (n > 0) {
                 stats_.bytes_in += static_cast<std::uint64_t>(n);
                 now = steady_now();
@@ -144,27 +114,13 @@ private:
             ::usleep(static_cast<useconds_t>(
                 std::chrono::duration_cast<std::chrono::microseconds>(faults_.extra_delay)
                     .count()));
-        std::size_t off = 0;
-        while (off < out.size()) {
-            const ssize_t n = ::write(master_, out.data() + off, out.size() - off);
-            if (n > 0) {
-                off += static_cast<std::size_t>(n);
-            } else if (errno == EAGAIN) {
-                pollfd p{master_, POLLOUT, 0};
-                ::poll(&p, 1, 10);
-            } else {
-                return;
-            }
-        }
+        if (!pty_.write(out)) return;
         ++stats_.replies;
     }
 
     pty_faults faults_;
     std::mt19937 rng_;
-    int master_ = -1;
-    int slave_ = -1;
-    std::string path_;
-    std::string link_;
+    pseudo_terminal pty_;
     std::vector<Station*> stations_;
     pty_stats stats_{};
 };
