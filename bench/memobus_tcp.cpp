@@ -1,0 +1,269 @@
+// ferrule's Extended MEMOBUS controller side, host::memobus_server (one io_context thread,
+// one register_image, a channel per master), on loopback under load.
+//
+// Load: one thread with epoll over `masters` non-blocking connections (max_channels is 128,
+// so every one gets a channel), each with one request outstanding at a time: master i reads
+// its own block of 10 hold registers, MW(10 i)…MW(10 i + 9), with SFC 09; the serial
+// (0…255, wrapping), the response's shape and the values are checked. A run lasts one second
+// of wall time or 400 000 requests, whichever ends first. Counters: requests per second, the
+// server thread's CPU time per request, and the latency of each request (send of the
+// request to the whole response read) as median, 99th percentile and maximum, in
+// microseconds.
+#include <benchmark/benchmark.h>
+
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <pthread.h>
+#include <sys/epoll.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cerrno>
+
+#include <asio/io_context.hpp>
+#include <asio/ip/tcp.hpp>
+#include <asio/post.hpp>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "ferrule/asio/memobus_server.hpp"
+#include "ferrule/core/bytes.hpp"
+#include "ferrule/memobus/message.hpp"
+#include "ferrule/memobus/register_image.hpp"
+
+namespace {
+
+namespace mem = ferrule::memobus;
+using clock_type = std::chrono::steady_clock;
+constexpr int registers = 10;
+constexpr int most_masters = 64;
+constexpr std::size_t max_requests = 400'000;
+constexpr auto run_time = std::chrono::seconds(1);
+
+// The value of MW n in the image.
+constexpr std::uint16_t value_of(std::size_t n) {
+    return static_cast<std::uint16_t>(0x5A00 ^ (n * 7));
+}
+
+// The server thread's CPU time.
+double thread_cpu_seconds(std::thread& t) {
+    clockid_t id{};
+    pthread_getcpuclockid(t.native_handle(), &id);
+    timespec ts{};
+    clock_gettime(id, &ts);
+    return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) / 1e9;
+}
+
+class server {
+public:
+    using image = mem::register_image<registers * most_masters, 16>;
+    server() : server_(ctx_.get_executor(), image_, options()) {
+        for (std::size_t i = 0; i < image::mw_size; ++i) image_.set_mw(i, value_of(i));
+        server_.listen({::asio::ip::make_address("127.0.0.1"), 0});
+        thread_ = std::thread([this] { ctx_.run(); });
+    }
+    ~server() {
+        ::asio::post(ctx_, [this] { server_.close(); });
+        ctx_.stop();
+        thread_.join();
+    }
+    server(const server&) = delete;
+    server& operator=(const server&) = delete;
+    std::uint16_t port() const { return server_.port(); }
+    double cpu_seconds() { return thread_cpu_seconds(thread_); }
+
+private:
+    static ferrule::host::memobus_server_options options() {
+        ferrule::host::memobus_server_options o;
+        o.max_channels = 128;
+        return o;
+    }
+    ::asio::io_context ctx_;
+    image image_;
+    ferrule::host::memobus_server<image> server_;
+    std::thread thread_;
+};
+
+struct load_result {
+    std::vector<std::uint32_t> latency_ns;
+    std::size_t errors = 0;
+};
+
+// One master connection: a request written, its response read, the next request. The
+// socket is non-blocking; the pool's epoll loop tells it when the response is readable.
+class load_master {
+public:
+    load_master(std::uint16_t port, int index)
+        : fd_(socket(AF_INET, SOCK_STREAM, 0)),
+          first_(static_cast<std::uint16_t>(registers * index)) {
+        sockaddr_in a{};
+        a.sin_family = AF_INET;
+        a.sin_port = htons(port);
+        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        if (connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) ok_ = false;
+        const int one = 1;
+        setsockopt(fd_, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        fcntl(fd_, F_SETFL, fcntl(fd_, F_GETFL) | O_NONBLOCK);
+        mem::request r;
+        r.function = mem::sfc::read_holding_registers_ext;
+        r.address = first_;
+        r.count = registers;
+        if (mem::encode_command(r, 0, request_).value_or(0) != request_.size()) ok_ = false;
+    }
+    ~load_master() { close(fd_); }
+    load_master(const load_master&) = delete;
+    load_master& operator=(const load_master&) = delete;
+    int fd() const { return fd_; }
+
+    // Sends the next request (the next serial); false when the socket refused it.
+    bool send_request() {
+        request_[1] = ++serial_;
+        received_ = 0;
+        sent_ = clock_type::now();
+        return ok_ && ::send(fd_, request_.data(), request_.size(), MSG_NOSIGNAL) ==
+                          static_cast<ssize_t>(request_.size());
+    }
+
+    // Reads what has come; true when the whole response is in (recorded in `out`).
+    bool on_readable(load_result& out) {
+        const ssize_t n = recv(fd_, response_.data() + received_, response_.size() - received_, 0);
+        if (n <= 0) {
+            if (n == 0 || errno != EAGAIN) ok_ = false;
+            return !ok_;
+        }
+        received_ += static_cast<std::size_t>(n);
+        if (received_ < response_.size()) return false;
+        if (!valid()) ++out.errors;
+        out.latency_ns.push_back(static_cast<std::uint32_t>(
+            std::chrono::duration_cast<std::chrono::nanoseconds>(clock_type::now() - sent_)
+                .count()));
+        return true;
+    }
+    bool ok() const { return ok_; }
+
+private:
+    // 218 header (type 0x19, the serial, total 40), length 26, MFC 20, SFC 09, CPU 01,
+    // spare, count 10, the registers little-endian.
+    bool valid() const {
+        const auto& r = response_;
+        if (r[0] != 0x19 || r[1] != serial_ || ferrule::load_le16(&r[6]) != r.size() ||
+            ferrule::load_le16(&r[12]) != r.size() - 14 || r[14] != mem::mfc_extended ||
+            r[15] != 0x09 || r[16] != mem::swap_nibbles(mem::default_cpu) ||
+            ferrule::load_le16(&r[18]) != registers)
+            return false;
+        for (int i = 0; i < registers; ++i)
+            if (ferrule::load_le16(&r[20 + 2 * i]) != value_of(first_ + std::size_t(i)))
+                return false;
+        return true;
+    }
+
+    int fd_;
+    bool ok_ = true;
+    std::uint16_t first_;
+    std::uint8_t serial_ = 0xFF; // the first request has serial 0
+    clock_type::time_point sent_{};
+    std::array<std::uint8_t, 22> request_{};
+    std::array<std::uint8_t, 20 + 2 * registers> response_{};
+    std::size_t received_ = 0;
+};
+
+// Runs `masters` connections until `end` or max_requests, in one thread with epoll (a load
+// generator lighter than the server it drives, so that it is not the limit).
+void run_load(std::uint16_t port, int masters, clock_type::time_point end, load_result& out) {
+    std::vector<std::unique_ptr<load_master>> pool;
+    const int ep = epoll_create1(0);
+    for (int i = 0; i < masters; ++i) {
+        pool.push_back(std::make_unique<load_master>(port, i));
+        epoll_event ev{};
+        ev.events = EPOLLIN;
+        ev.data.ptr = pool.back().get();
+        epoll_ctl(ep, EPOLL_CTL_ADD, pool.back()->fd(), &ev);
+    }
+    std::size_t active = 0;
+    for (auto& m : pool) {
+        if (m->send_request())
+            ++active;
+        else
+            ++out.errors;
+    }
+    std::array<epoll_event, 128> events{};
+    while (active > 0) {
+        const int n = epoll_wait(ep, events.data(), static_cast<int>(events.size()), 1000);
+        if (n <= 0) {
+            ++out.errors; // a response did not come within a second
+            break;
+        }
+        const bool more = clock_type::now() < end && out.latency_ns.size() < max_requests;
+        for (int i = 0; i < n; ++i) {
+            auto* m = static_cast<load_master*>(events[static_cast<std::size_t>(i)].data.ptr);
+            if (!m->on_readable(out)) continue;
+            if (!m->ok()) {
+                ++out.errors;
+                epoll_ctl(ep, EPOLL_CTL_DEL, m->fd(), nullptr);
+                --active;
+                continue;
+            }
+            if (!more) {
+                epoll_ctl(ep, EPOLL_CTL_DEL, m->fd(), nullptr);
+                --active;
+            } else if (!m->send_request()) {
+                ++out.errors;
+                epoll_ctl(ep, EPOLL_CTL_DEL, m->fd(), nullptr);
+                --active;
+            }
+        }
+    }
+    close(ep);
+}
+
+double percentile(std::vector<std::uint32_t>& v, double p) {
+    if (v.empty()) return 0;
+    const auto k = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1));
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+    return v[k] / 1000.0;
+}
+
+void memobus_server_load(benchmark::State& state) {
+    const int masters = static_cast<int>(state.range(0));
+    load_result result;
+    double seconds = 0;
+    double server_cpu = 0;
+    for (auto _ : state) {
+        server s;
+        result.latency_ns.reserve(max_requests);
+        const double cpu_before = s.cpu_seconds();
+        const auto start = clock_type::now();
+        run_load(s.port(), masters, start + run_time, result);
+        seconds = std::chrono::duration<double>(clock_type::now() - start).count();
+        server_cpu = s.cpu_seconds() - cpu_before;
+    }
+    if (result.errors > 0) state.SkipWithError("a request failed or returned wrong values");
+    const auto requests = static_cast<double>(result.latency_ns.size());
+    state.counters["requests"] = requests;
+    state.counters["req_per_s"] = requests / seconds;
+    state.counters["server_cpu_us_per_req"] = requests > 0 ? server_cpu / requests * 1e6 : 0.0;
+    state.counters["p50_us"] = percentile(result.latency_ns, 0.50);
+    state.counters["p99_us"] = percentile(result.latency_ns, 0.99);
+    state.counters["max_us"] =
+        result.latency_ns.empty()
+            ? 0.0
+            : *std::max_element(result.latency_ns.begin(), result.latency_ns.end()) / 1000.0;
+}
+
+} // namespace
+
+BENCHMARK(memobus_server_load)
+    ->Arg(1)
+    ->Arg(16)
+    ->Arg(64)
+    ->Iterations(1)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
