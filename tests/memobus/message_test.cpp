@@ -289,3 +289,24 @@ TEST_CASE("memobus message_decoder frames a TCP stream and resynchronises", "[me
     wrong_length[12] = 0x09; // MEMOBUS length 9, total says 8
     CHECK(parse_message(wrong_length).error() == errc::malformed);
 }
+
+TEST_CASE("memobus message_decoder drops a header whose lengths disagree at once", "[memobus]") {
+    // Total 4000 but a MEMOBUS length of 7: dropped at byte 14, not after 4000 bytes.
+    const octets liar{0x11, 0x00, 0, 0, 0, 0, 0xA0, 0x0F, 0, 0, 0, 0, 0x07, 0x00};
+    const auto good = command(make(sfc::read_holding_registers_ext, default_cpu, 0, 10), 0);
+    octets stream = liar;
+    stream.insert(stream.end(), good.begin(), good.end());
+    message_decoder d;
+    std::span<const std::uint8_t> rest(stream);
+    std::vector<octets> got;
+    message_decoder::step s;
+    do {
+        s = d.feed(rest);
+        rest = rest.subspan(s.consumed);
+        if (s.what == message_decoder::status::frame)
+            got.emplace_back(d.message().begin(), d.message().end());
+    } while (s.what != message_decoder::status::need_more);
+    REQUIRE(got.size() == 1);
+    CHECK(got[0] == good);
+    CHECK(d.skipped() == liar.size());
+}

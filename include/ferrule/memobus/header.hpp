@@ -72,10 +72,11 @@ constexpr std::size_t expected_length(std::span<const std::uint8_t> p) noexcept 
     if (total < least || total > max_message) return no_message;
     return total;
 }
-// A command or response whose MEMOBUS length agrees with the total.
-constexpr bool length_agrees(std::span<const std::uint8_t> m) noexcept {
+// A command or response whose MEMOBUS length agrees with the total `total` (its first 14
+// bytes are enough).
+constexpr bool length_agrees(std::span<const std::uint8_t> m, std::size_t total) noexcept {
     if (m[0] == static_cast<std::uint8_t>(command_type::general)) return true;
-    return load_le16(m.data() + header_size) + header_size + length_size == m.size();
+    return load_le16(m.data() + header_size) + header_size + length_size == total;
 }
 } // namespace detail
 
@@ -83,7 +84,7 @@ constexpr bool length_agrees(std::span<const std::uint8_t> m) noexcept {
 inline result<header> parse_message(std::span<const std::uint8_t> datagram) noexcept {
     const std::size_t n = detail::expected_length(datagram);
     if (n == 0 || n == detail::no_message || n != datagram.size() ||
-        !detail::length_agrees(datagram))
+        !detail::length_agrees(datagram, datagram.size()))
         return errc::malformed;
     return load_header(datagram.data());
 }
@@ -166,8 +167,11 @@ private:
             if (size_ == 0) return {};
             const std::size_t n = detail::expected_length({buf_.data(), size_});
             if (n == 0) return {};
+            // The MEMOBUS length is checked as soon as it is in (byte 14), so a header that
+            // disagrees with itself is dropped without waiting for the total it announces.
+            const bool length_in = size_ >= header_size + length_size;
             if (n == detail::no_message ||
-                (size_ >= n && !detail::length_agrees({buf_.data(), n}))) {
+                (length_in && !detail::length_agrees({buf_.data(), std::min(n, size_)}, n))) {
                 if (drop()) return {status::error, 0, errc::malformed};
                 continue;
             }
