@@ -384,3 +384,18 @@ TEST_CASE("memobus server: a UDP peer silent for idle_timeout gives its channel 
     CHECK(s.server.stats().udp_dropped == 1);
     CHECK(s.server.channel_stats(0).opened == 2);
 }
+
+TEST_CASE("memobus server: a UDP peer silent for idle_timeout gives its channel to a TCP master",
+          "[asio][memobus]") {
+    host::memobus_server_options o;
+    o.max_channels = 1;
+    o.idle_timeout = 100ms;
+    running_server s(o);
+    udp_master a(s.server.udp_port());
+    REQUIRE(a.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    std::this_thread::sleep_for(150ms);
+    tcp_master t(s.server.port());
+    CHECK(t.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    CHECK(s.server.stats().accepted == 1);
+    CHECK(s.server.stats().refused == 0);
+}

@@ -16,8 +16,8 @@
 //     served. Requests are answered in order, pipelined ones too (§6 assumes none). A
 //     connection that sends nothing for `idle_timeout` is closed
 //   * UDP: one datagram is one message (§6); a peer silent for `idle_timeout` gives up its
-//     channel when another needs it. A reply the socket does not take at once is dropped
-//     (and counted), as a datagram may be
+//     channel when another peer or a TCP connection needs it. A reply the socket does not take at
+//     once is dropped (and counted), as a datagram may be
 //   * replies are sent straight from the session's buffer; only the part a TCP socket does
 //     not take at once is copied to wait for it, and a master that does not read its replies
 //     is not read from while reply_writer::backlog_limit bytes of them wait
@@ -329,7 +329,7 @@ private:
         acceptor_.async_accept([this](std::error_code ec, ::asio::ip::tcp::socket socket) {
             if (ec == ::asio::error::operation_aborted || !acceptor_.is_open()) return;
             if (!ec) {
-                if (const auto channel = take()) {
+                if (const auto channel = take_or_reclaim()) {
                     ++stats_.accepted;
                     auto c = std::make_shared<connection>(*this, std::move(socket), *channel);
                     connections_.push_back(c);
@@ -381,22 +381,27 @@ private:
         if (ec) ++stats_.udp_unsent;
     }
 
+    // A free channel, or the channel of a UDP peer silent for idle_timeout (a UDP peer has no
+    // connection to close: its channel is reclaimed when a new TCP connection or peer needs one).
+    std::optional<std::size_t> take_or_reclaim() {
+        if (auto channel = take()) return channel;
+        if (options_.idle_timeout == duration::zero()) return std::nullopt;
+        const time_point now = steady_now();
+        for (auto it = peers_.begin(); it != peers_.end(); ++it) {
+            if (now - it->last_activity < options_.idle_timeout) continue;
+            release(it->channel);
+            peers_.erase(it);
+            return take();
+        }
+        return std::nullopt;
+    }
+
     // The peer's session; a new peer takes a free channel, or one of a peer silent for
     // idle_timeout. Null when there is none.
     peer* find_peer(const ::asio::ip::udp::endpoint& from) {
         for (auto& p : peers_)
             if (p.endpoint == from) return &p;
-        auto channel = take();
-        if (!channel && options_.idle_timeout != duration::zero()) {
-            const time_point now = steady_now();
-            for (auto it = peers_.begin(); it != peers_.end(); ++it) {
-                if (now - it->last_activity < options_.idle_timeout) continue;
-                release(it->channel);
-                peers_.erase(it);
-                channel = take();
-                break;
-            }
-        }
+        const auto channel = take_or_reclaim();
         if (!channel) return nullptr;
         ++stats_.udp_peers;
         peers_.push_back({from, *channel, {memobus::server(config_of(*channel))}, {}});
