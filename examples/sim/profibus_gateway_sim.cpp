@@ -56,6 +56,7 @@ struct gateway_options {
     unsigned drive_unit = 1;
     std::string drive_port;
     std::uint32_t drive_baud = 19'200;
+    std::string dp_port;
 };
 
 using tools::hex;
@@ -95,14 +96,32 @@ private:
 
 // Both lines of the gateway in one loop, until `stop` or until the drive line hangs up (a
 // --drive-port whose simulator has ended): false then.
-bool run_lines(gateway::core& gw, const host::pseudo_terminal& dp, host::serial_stream& drive,
-               int drive_fd, const std::atomic<bool>& stop) {
+// The DP line: the simulator's end of a pty, or a serial port given with --dp-port.
+struct dp_line {
+    int fd = -1;
+    const host::pseudo_terminal* pty = nullptr;
+    void write(std::span<const std::uint8_t> bytes) const {
+        if (pty) {
+            (void)pty->write(bytes); // no reader: lost, as on an open line
+            return;
+        }
+        std::size_t off = 0;
+        while (off < bytes.size()) {
+            const ssize_t n = ::write(fd, bytes.data() + off, bytes.size() - off);
+            if (n <= 0) return; // the port failed: the telegram is lost
+            off += static_cast<std::size_t>(n);
+        }
+    }
+};
+
+bool run_lines(gateway::core& gw, const dp_line& dp, host::serial_stream& drive, int drive_fd,
+               const std::atomic<bool>& stop) {
     std::array<std::uint8_t, 256> buf{};
     while (!stop.load(std::memory_order_relaxed)) {
         const time_point now = host::steady_now();
         for (session_action a = gw.next_dp(now); a.what == session_action::kind::send;
              a = gw.next_dp(now))
-            (void)dp.write(a.bytes); // no reader: lost, as on an open line
+            dp.write(a.bytes);
         session_action m = gw.next_modbus(now);
         for (; m.what == session_action::kind::send; m = gw.next_modbus(now)) {
             if (m.discard_input) drive.discard_input();
@@ -113,10 +132,10 @@ bool run_lines(gateway::core& gw, const host::pseudo_terminal& dp, host::serial_
         const auto wait = std::max(until - now, duration::zero()).count();
         const ::timespec ts{static_cast<::time_t>(wait / 1'000'000'000),
                             static_cast<long>(wait % 1'000'000'000)};
-        std::array<pollfd, 2> fds{{{dp.fd(), POLLIN, 0}, {drive_fd, POLLIN, 0}}};
+        std::array<pollfd, 2> fds{{{dp.fd, POLLIN, 0}, {drive_fd, POLLIN, 0}}};
         if (::ppoll(fds.data(), fds.size(), &ts, nullptr) <= 0) continue;
         if (fds[0].revents & POLLIN) {
-            const ssize_t n = ::read(dp.fd(), buf.data(), buf.size());
+            const ssize_t n = ::read(dp.fd, buf.data(), buf.size());
             if (n > 0)
                 gw.on_dp_receive({buf.data(), static_cast<std::size_t>(n)}, host::steady_now());
         }
@@ -180,23 +199,44 @@ int serve_gateway(const gateway_options& o, const std::atomic<bool>& stop) {
     }
     host::serial_stream drive(ctx, port);
 
-    host::pseudo_terminal dp;
-    std::error_code opened = dp.open();
-    if (!opened && !o.link.empty()) opened = dp.link(o.link);
-    if (auto ec = opened) {
-        fmt::print(stderr, "ferrule-sim: {}: {}\n", o.link.empty() ? "openpty" : "--link " + o.link,
-                   ec.message());
-        return 3;
+    // The DP side: a pty for a master on this machine, or a real port (--dp-port).
+    host::pseudo_terminal pty;
+    asio::serial_port dp_port(ctx);
+    dp_line dp;
+    std::string dp_name;
+    if (o.dp_port.empty()) {
+        std::error_code opened = pty.open();
+        if (!opened && !o.link.empty()) opened = pty.link(o.link);
+        if (auto ec = opened) {
+            fmt::print(stderr, "ferrule-sim: {}: {}\n",
+                       o.link.empty() ? "openpty" : "--link " + o.link, ec.message());
+            return 3;
+        }
+        dp = {pty.fd(), &pty};
+        dp_name = pty.path() + (o.link.empty() ? "" : " (link " + o.link + ")");
+        fmt::print("{}\n", o.link.empty() ? pty.path() : o.link);
+    } else {
+        host::serial_options dso;
+        dso.format = pb::format(o.dp_baud);
+        const auto dp_warn = [](std::string_view text) {
+            fmt::print(stderr, "ferrule-sim: warning: {}\n", text);
+        };
+        if (auto ec = host::open_serial(dp_port, o.dp_port, dso, dp_warn)) {
+            fmt::print(stderr, "ferrule-sim: --dp-port: {}\n",
+                       host::open_error_message(o.dp_port, ec));
+            return 3;
+        }
+        dp = {dp_port.native_handle(), nullptr};
+        dp_name = o.dp_port;
+        fmt::print("{}\n", o.dp_port);
     }
     gateway::core gw(gc);
-    fmt::print("{}\n", o.link.empty() ? dp.path() : o.link);
     std::fflush(stdout);
     fmt::print(stderr,
                "ferrule-sim: PROFIBUS-DP gateway, slave {} (ident 0x{:04X}, cfg {}: {} bytes out, "
-               "{} in{}) on {}{}; transparent to Modbus unit {} on {}{}; Ctrl-C to stop\n",
+               "{} in{}) on {}; transparent to Modbus unit {} on {}{}; Ctrl-C to stop\n",
                o.address, o.ident, hex(cfg_bytes), sizes->outputs, sizes->inputs,
-               o.status_word ? ", status word first" : "", dp.path(),
-               o.link.empty() ? "" : " (link " + o.link + ")", o.drive_unit, drive_path,
+               o.status_word ? ", status word first" : "", dp_name, o.drive_unit, drive_path,
                sim ? " (a simulated VFD)" : "");
     const bool stopped = run_lines(gw, dp, drive, port.native_handle(), stop);
     if (!stopped) fmt::print(stderr, "ferrule-sim: the drive line {} hung up\n", drive_path);
@@ -247,6 +287,10 @@ void add_profibus_gateway(CLI::App& app, const std::atomic<bool>& stop, int& rc)
     sub->add_option("--drive-port", o->drive_port,
                     "the drive line: a serial port or a `ferrule-sim modbus` pty (default: a "
                     "simulated VFD on an internal pty)");
+    sub->add_option("--dp-port", o->dp_port,
+                    "the DP line: a serial port (an RS-485 adapter on a DP bus) instead of a pty; "
+                    "the host meets max TSDR at 9.6 and 19.2 kbit/s")
+        ->excludes("--link");
     sub->add_option("--drive-baud", o->drive_baud, "drive line baud rate (8E1)")
         ->check(CLI::IsMember({1'200, 2'400, 4'800, 9'600, 19'200, 38'400, 57'600, 115'200}))
         ->capture_default_str();
