@@ -10,6 +10,7 @@ void add_dimetix(CLI::App& app, int& exit_status);
 void add_lecom(CLI::App& app, int& exit_status);
 void add_modbus(CLI::App& app, int& exit_status);
 void add_profibus(CLI::App& app, int& exit_status);
+void add_memobus(CLI::App& app, int& exit_status);
 void add_decode(CLI::App& app, int& exit_status);
 void add_demo(CLI::App& app, int& exit_status);
 

@@ -25,5 +25,6 @@ int decode_lecom(const decode_options& o, std::span<const std::uint8_t> bytes);
 int decode_modbus_rtu(const decode_options& o, std::span<const std::uint8_t> bytes);
 int decode_modbus_tcp(const decode_options& o, std::span<const std::uint8_t> bytes);
 int decode_profibus(const decode_options& o, std::span<const std::uint8_t> bytes);
+int decode_memobus(const decode_options& o, std::span<const std::uint8_t> bytes);
 
 } // namespace ferrule::cli

@@ -221,10 +221,10 @@ void add_decode(CLI::App& app, int& exit_status) {
     auto* sub = app.add_subcommand("decode", "split captured bytes into frames and decode them");
     auto o = std::make_shared<decode_options>();
     sub->add_option("protocol", o->protocol,
-                    "movilink, dimetix, lecom, modbus-rtu, modbus-tcp or profibus")
+                    "movilink, dimetix, lecom, modbus-rtu, modbus-tcp, profibus or memobus")
         ->required()
         ->check(CLI::IsMember(
-            {"movilink", "dimetix", "lecom", "modbus-rtu", "modbus-tcp", "profibus"}));
+            {"movilink", "dimetix", "lecom", "modbus-rtu", "modbus-tcp", "profibus", "memobus"}));
     sub->add_option("bytes", o->hex, "hex bytes, e.g. 02 01 05 00 06 3A 98 01 F4 57");
     sub->add_option("--file", o->file, "binary capture file instead of hex bytes");
     sub->add_flag("--json", o->json, "one JSON object per frame");
@@ -253,6 +253,8 @@ void add_decode(CLI::App& app, int& exit_status) {
             exit_status = decode_modbus_tcp(*o, bytes);
         else if (o->protocol == "profibus")
             exit_status = decode_profibus(*o, bytes);
+        else if (o->protocol == "memobus")
+            exit_status = decode_memobus(*o, bytes);
         else
             exit_status = decode_movilink(*o, bytes);
     });

@@ -1,11 +1,16 @@
 // `ferrule demo`: simulated devices on pseudo-terminals, and a short session against them
-// through the real serial driver, as it would run against hardware on /dev/ttyUSB0.
+// through the real serial driver, as it would run against hardware on /dev/ttyUSB0; and a
+// simulated MP2310 that two PCs reach over TCP at once.
+#include <asio/post.hpp>
+
 #include <atomic>
 #include <chrono>
+#include <memory>
 #include <thread>
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "ferrule/asio/memobus_server.hpp"
 #include "ferrule/asio/pty_server.hpp"
 #include "ferrule/asio/serve.hpp"
 #include "ferrule/dimetix/access.hpp"
@@ -13,6 +18,8 @@
 #include "ferrule/lecom/access.hpp"
 #include "ferrule/lecom/poller.hpp"
 #include "ferrule/lecom/sim_station.hpp"
+#include "ferrule/memobus/access.hpp"
+#include "ferrule/memobus/register_image.hpp"
 #include "ferrule/modbus/access.hpp"
 #include "ferrule/modbus/sim_station.hpp"
 #include "ferrule/movilink/access.hpp"
@@ -28,6 +35,7 @@ namespace ml = ferrule::movilink;
 namespace dx = ferrule::dimetix;
 namespace lc = ferrule::lecom;
 namespace mb = ferrule::modbus;
+namespace mm = ferrule::memobus;
 using namespace std::chrono_literals;
 
 // A pty_server on its own thread; pause() stops it so the demo can change a device.
@@ -59,7 +67,8 @@ int fail(const char* what, std::error_code ec) {
     fmt::print("  {} failed: {}\n", what, ec.message());
     const bool device =
         ec.category() == ml::device_category() || ec.category() == dx::device_category() ||
-        ec.category() == lc::device_category() || ec.category() == mb::device_category();
+        ec.category() == lc::device_category() || ec.category() == mb::device_category() ||
+        ec.category() == mm::device_category();
     return device ? exit_device_error : exit_transport;
 }
 
@@ -265,6 +274,82 @@ int modbus_part(const demo_options& d) {
     return exit_ok;
 }
 
+// Two PCs on two channels of one MP2310 at once, as in seeds/004: the controller's Extended
+// MEMOBUS server on an io_context thread, two TCP connections held open together, and each
+// PC on its own thread writing and reading back its own MW block.
+int memobus_part(const demo_options& d) {
+    using image_type = mm::register_image<4096, 64>;
+    asio::io_context server_ctx;
+    const auto image = std::make_unique<image_type>();
+    host::memobus_server<image_type> controller(server_ctx.get_executor(), *image);
+    if (auto ec = controller.listen({asio::ip::make_address("127.0.0.1"), 0}))
+        return fail("listen", ec);
+    std::thread server_thread([&] { server_ctx.run(); });
+    const auto stop_server = [&] {
+        asio::post(server_ctx, [&] { controller.close(); });
+        server_ctx.stop();
+        server_thread.join();
+    };
+
+    fmt::print("\n8. A simulated Yaskawa MP2310 (Extended MEMOBUS, 218IFA: {} channels) on "
+               "127.0.0.1:{}\n",
+               controller.max_channels(), controller.port());
+    struct pc {
+        asio::io_context ctx;
+        asio::ip::tcp::socket socket{ctx};
+        host::tcp_stream line{ctx, socket};
+        mm::master master;
+        std::uint16_t first = 0;
+        std::array<std::uint16_t, 10> written{};
+        std::array<std::uint16_t, 10> read{};
+        std::error_code ec;
+    };
+    std::array<pc, 2> pcs;
+    for (std::size_t i = 0; i < pcs.size(); ++i) {
+        auto& p = pcs[i];
+        p.socket.connect({asio::ip::make_address("127.0.0.1"), controller.port()}, p.ec);
+        if (p.ec) {
+            stop_server();
+            return fail("connect", p.ec);
+        }
+        if (d.trace) p.line.set_tap(trace_tap(host::steady_now()));
+        p.first = static_cast<std::uint16_t>(1000 * (i + 1));
+        for (std::size_t k = 0; k < p.written.size(); ++k)
+            p.written[k] = static_cast<std::uint16_t>(p.first + 100 * i + k);
+    }
+    const auto work = [](pc& p) {
+        for (int round = 0; round < 20 && !p.ec; ++round) {
+            p.ec = mm::write_words(p.line, p.master, mm::mw(p.first), p.written);
+            if (!p.ec) p.ec = mm::read_words(p.line, p.master, mm::mw(p.first), p.read);
+            if (!p.ec && p.read != p.written) p.ec = make_error_code(errc::malformed);
+        }
+    };
+    std::thread second([&] { work(pcs[1]); });
+    work(pcs[0]);
+    second.join();
+    for (std::size_t i = 0; i < pcs.size(); ++i) {
+        const auto& p = pcs[i];
+        if (p.ec) {
+            stop_server();
+            return fail("write and read back", p.ec);
+        }
+        fmt::print("  PC {} wrote MW{:05}-MW{:05} = {}..{} (SFC 0B) and read them back (SFC 09) "
+                   "20 times: ok\n",
+                   i + 1, p.first, p.first + 9, p.written.front(), p.written.back());
+    }
+    for (std::size_t i = 0; i < pcs.size(); ++i) {
+        const auto c = controller.channel_stats(i);
+        fmt::print("  controller channel {}: {} requests, {} answered\n", i + 1, c.requests,
+                   c.responses);
+    }
+    std::array<std::uint16_t, 2> beyond{};
+    const auto refused = mm::read_words(pcs[0].line, pcs[0].master, mm::mw(4095), beyond);
+    fmt::print("  PC 1 reads MW04095-MW04096, beyond the image: {}\n",
+               refused ? refused.message() : "unexpectedly answered");
+    stop_server();
+    return exit_ok;
+}
+
 int run_demo(const demo_options& d) {
     ml::slave_config on_pty;
     on_pty.format.baud = host::pty_line_baud;
@@ -368,7 +453,8 @@ int run_demo(const demo_options& d) {
                s.transactions, s.succeeded, s.failed, s.resends);
     if (const int rc = sensor_part(d)) return rc;
     if (const int rc = lecom_part(d)) return rc;
-    return modbus_part(d);
+    if (const int rc = modbus_part(d)) return rc;
+    return memobus_part(d);
 }
 
 } // namespace

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
     ferrule::cli::add_lecom(app, exit_status);
     ferrule::cli::add_modbus(app, exit_status);
     ferrule::cli::add_profibus(app, exit_status);
+    ferrule::cli::add_memobus(app, exit_status);
     ferrule::cli::add_decode(app, exit_status);
     ferrule::cli::add_demo(app, exit_status);
     try {

@@ -23,6 +23,7 @@
 #include "ferrule/lecom/constants.hpp"
 #include "ferrule/lecom/sim_station.hpp"
 #include "ferrule/movilink/sim_station.hpp"
+#include "memobus_sim.hpp"
 #include "modbus_sim.hpp"
 #include "profibus_gateway_sim.hpp"
 
@@ -295,6 +296,7 @@ int main(int argc, char** argv) {
     mbs->callback([&] { rc = serve_modbus(o); });
 
     ferrule::sim_app::add_profibus_gateway(app, stop, rc);
+    ferrule::sim_app::add_memobus(app, stop, rc);
 
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
