@@ -1,7 +1,5 @@
-// ferrule-sim profibus-gateway. One thread runs gateway::core on both of its lines, so the
-// core (sans-I/O, not thread-safe) needs no lock: it waits with one ppoll() on the DP pty and
-// the drive port until bytes come or the core's next deadline (a DP reply due, the DP
-// watchdog, a Modbus response timeout). The simulated drives, when there are any, run on
+// ferrule-sim profibus-gateway: gateway::core on its two lines, run by host::serve_gateway()
+// from one thread. The simulated drives, when there are any, run on
 // their own pty in a pty_server thread, exactly as `ferrule-sim modbus` serves them; the
 // gateway opens that pty as its drive port, so the simulated and a real drive line take the
 // same path through the code.
@@ -11,7 +9,6 @@
 // internal pty (inter_frame_gap 0, as the modbus simulator and the CLI's --gap 0 do).
 #include "profibus_gateway_sim.hpp"
 
-#include <poll.h>
 #include <unistd.h>
 
 #include <fmt/core.h>
@@ -34,6 +31,7 @@
 #include "ferrule/asio/pty_server.hpp"
 #include "ferrule/asio/serial_port.hpp"
 #include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/asio/serve_gateway.hpp"
 #include "ferrule/gateway/gateway.hpp"
 #include "ferrule/modbus/constants.hpp"
 #include "ferrule/modbus/sim_station.hpp"
@@ -94,13 +92,11 @@ private:
     std::thread thread_;
 };
 
-// Both lines of the gateway in one loop, until `stop` or until the drive line hangs up (a
-// --drive-port whose simulator has ended): false then.
 // The DP line: the simulator's end of a pty, or a serial port given with --dp-port.
 struct dp_line {
     int fd = -1;
     const host::pseudo_terminal* pty = nullptr;
-    void write(std::span<const std::uint8_t> bytes) const {
+    void operator()(std::span<const std::uint8_t> bytes) const {
         if (pty) {
             (void)pty->write(bytes); // no reader: lost, as on an open line
             return;
@@ -113,45 +109,6 @@ struct dp_line {
         }
     }
 };
-
-bool run_lines(gateway::core& gw, const dp_line& dp, host::serial_stream& drive, int drive_fd,
-               const std::atomic<bool>& stop) {
-    std::array<std::uint8_t, 256> buf{};
-    while (!stop.load(std::memory_order_relaxed)) {
-        const time_point now = host::steady_now();
-        for (session_action a = gw.next_dp(now); a.what == session_action::kind::send;
-             a = gw.next_dp(now))
-            dp.write(a.bytes);
-        session_action m = gw.next_modbus(now);
-        for (; m.what == session_action::kind::send; m = gw.next_modbus(now)) {
-            if (m.discard_input) drive.discard_input();
-            if (const io_result w = drive.write(m.bytes); w.ec) gw.on_modbus_error(w.ec);
-        }
-        time_point until = std::min(now + std::chrono::milliseconds(50), gw.dp_wake_at());
-        if (m.what == session_action::kind::wait) until = std::min(until, m.deadline);
-        const auto wait = std::max(until - now, duration::zero()).count();
-        const ::timespec ts{static_cast<::time_t>(wait / 1'000'000'000),
-                            static_cast<long>(wait % 1'000'000'000)};
-        std::array<pollfd, 2> fds{{{dp.fd, POLLIN, 0}, {drive_fd, POLLIN, 0}}};
-        if (::ppoll(fds.data(), fds.size(), &ts, nullptr) <= 0) continue;
-        if (fds[0].revents & POLLIN) {
-            const ssize_t n = ::read(dp.fd, buf.data(), buf.size());
-            if (n > 0)
-                gw.on_dp_receive({buf.data(), static_cast<std::size_t>(n)}, host::steady_now());
-        }
-        if (fds[1].revents != 0) {
-            io_result r{};
-            if (fds[1].revents & POLLIN) r = drive.read_some(buf, host::steady_now());
-            if (r.bytes > 0)
-                gw.on_modbus_receive({buf.data(), r.bytes}, host::steady_now());
-            else if (fds[1].revents & (POLLHUP | POLLERR | POLLNVAL))
-                return false;
-            else if (r.ec && r.ec != make_error_code(errc::timeout))
-                gw.on_modbus_error(r.ec);
-        }
-    }
-    return true;
-}
 
 int serve_gateway(const gateway_options& o, const std::atomic<bool>& stop) {
     std::vector<std::uint8_t> cfg_bytes;
@@ -238,7 +195,7 @@ int serve_gateway(const gateway_options& o, const std::atomic<bool>& stop) {
                o.address, o.ident, hex(cfg_bytes), sizes->outputs, sizes->inputs,
                o.status_word ? ", status word first" : "", dp_name, o.drive_unit, drive_path,
                sim ? " (a simulated VFD)" : "");
-    const bool stopped = run_lines(gw, dp, drive, port.native_handle(), stop);
+    const bool stopped = host::serve_gateway(gw, dp.fd, dp, drive, port.native_handle(), stop);
     if (!stopped) fmt::print(stderr, "ferrule-sim: the drive line {} hung up\n", drive_path);
 
     const auto& d = gw.dp().stats();
