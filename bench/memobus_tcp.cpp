@@ -11,13 +11,8 @@
 // microseconds.
 #include <benchmark/benchmark.h>
 
-#include <fcntl.h>
 #include <netinet/in.h>
-#include <netinet/tcp.h>
-#include <pthread.h>
-#include <sys/epoll.h>
 #include <sys/socket.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -38,11 +33,14 @@
 #include "ferrule/core/bytes.hpp"
 #include "ferrule/memobus/message.hpp"
 #include "ferrule/memobus/register_image.hpp"
+#include "tcp_load.hpp"
 
 namespace {
 
 namespace mem = ferrule::memobus;
-using clock_type = std::chrono::steady_clock;
+using ferrule::bench::clock_type;
+using ferrule::bench::load_result;
+using ferrule::bench::thread_cpu_seconds;
 constexpr int registers = 10;
 constexpr int most_masters = 64;
 constexpr std::size_t max_requests = 400'000;
@@ -51,15 +49,6 @@ constexpr auto run_time = std::chrono::seconds(1);
 // The value of MW n in the image.
 constexpr std::uint16_t value_of(std::size_t n) {
     return static_cast<std::uint16_t>(0x5A00 ^ (n * 7));
-}
-
-// The server thread's CPU time.
-double thread_cpu_seconds(std::thread& t) {
-    clockid_t id{};
-    pthread_getcpuclockid(t.native_handle(), &id);
-    timespec ts{};
-    clock_gettime(id, &ts);
-    return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) / 1e9;
 }
 
 class server {
@@ -92,33 +81,23 @@ private:
     std::thread thread_;
 };
 
-struct load_result {
-    std::vector<std::uint32_t> latency_ns;
-    std::size_t errors = 0;
-};
-
 // One master connection: a request written, its response read, the next request. The
 // socket is non-blocking; the pool's epoll loop tells it when the response is readable.
 class load_master {
 public:
     load_master(std::uint16_t port, int index)
-        : fd_(socket(AF_INET, SOCK_STREAM, 0)),
+        : fd_(ferrule::bench::connect_loopback(port)),
           first_(static_cast<std::uint16_t>(registers * index)) {
-        sockaddr_in a{};
-        a.sin_family = AF_INET;
-        a.sin_port = htons(port);
-        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-        if (connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) ok_ = false;
-        const int one = 1;
-        setsockopt(fd_, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-        fcntl(fd_, F_SETFL, fcntl(fd_, F_GETFL) | O_NONBLOCK);
+        if (fd_ < 0) ok_ = false;
         mem::request r;
         r.function = mem::sfc::read_holding_registers_ext;
         r.address = first_;
         r.count = registers;
         if (mem::encode_command(r, 0, request_).value_or(0) != request_.size()) ok_ = false;
     }
-    ~load_master() { close(fd_); }
+    ~load_master() {
+        if (fd_ >= 0) close(fd_);
+    }
     load_master(const load_master&) = delete;
     load_master& operator=(const load_master&) = delete;
     int fd() const { return fd_; }
@@ -175,62 +154,6 @@ private:
     std::size_t received_ = 0;
 };
 
-// Runs `masters` connections until `end` or max_requests, in one thread with epoll (a load
-// generator lighter than the server it drives, so that it is not the limit).
-void run_load(std::uint16_t port, int masters, clock_type::time_point end, load_result& out) {
-    std::vector<std::unique_ptr<load_master>> pool;
-    const int ep = epoll_create1(0);
-    for (int i = 0; i < masters; ++i) {
-        pool.push_back(std::make_unique<load_master>(port, i));
-        epoll_event ev{};
-        ev.events = EPOLLIN;
-        ev.data.ptr = pool.back().get();
-        epoll_ctl(ep, EPOLL_CTL_ADD, pool.back()->fd(), &ev);
-    }
-    std::size_t active = 0;
-    for (auto& m : pool) {
-        if (m->send_request())
-            ++active;
-        else
-            ++out.errors;
-    }
-    std::array<epoll_event, 128> events{};
-    while (active > 0) {
-        const int n = epoll_wait(ep, events.data(), static_cast<int>(events.size()), 1000);
-        if (n <= 0) {
-            ++out.errors; // a response did not come within a second
-            break;
-        }
-        const bool more = clock_type::now() < end && out.latency_ns.size() < max_requests;
-        for (int i = 0; i < n; ++i) {
-            auto* m = static_cast<load_master*>(events[static_cast<std::size_t>(i)].data.ptr);
-            if (!m->on_readable(out)) continue;
-            if (!m->ok()) {
-                ++out.errors;
-                epoll_ctl(ep, EPOLL_CTL_DEL, m->fd(), nullptr);
-                --active;
-                continue;
-            }
-            if (!more) {
-                epoll_ctl(ep, EPOLL_CTL_DEL, m->fd(), nullptr);
-                --active;
-            } else if (!m->send_request()) {
-                ++out.errors;
-                epoll_ctl(ep, EPOLL_CTL_DEL, m->fd(), nullptr);
-                --active;
-            }
-        }
-    }
-    close(ep);
-}
-
-double percentile(std::vector<std::uint32_t>& v, double p) {
-    if (v.empty()) return 0;
-    const auto k = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1));
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-    return v[k] / 1000.0;
-}
-
 void memobus_server_load(benchmark::State& state) {
     const int masters = static_cast<int>(state.range(0));
     load_result result;
@@ -241,21 +164,14 @@ void memobus_server_load(benchmark::State& state) {
         result.latency_ns.reserve(max_requests);
         const double cpu_before = s.cpu_seconds();
         const auto start = clock_type::now();
-        run_load(s.port(), masters, start + run_time, result);
+        std::vector<std::unique_ptr<load_master>> pool;
+        for (int i = 0; i < masters; ++i)
+            pool.push_back(std::make_unique<load_master>(s.port(), i));
+        ferrule::bench::run_load(pool, start + run_time, max_requests, result);
         seconds = std::chrono::duration<double>(clock_type::now() - start).count();
         server_cpu = s.cpu_seconds() - cpu_before;
     }
-    if (result.errors > 0) state.SkipWithError("a request failed or returned wrong values");
-    const auto requests = static_cast<double>(result.latency_ns.size());
-    state.counters["requests"] = requests;
-    state.counters["req_per_s"] = requests / seconds;
-    state.counters["server_cpu_us_per_req"] = requests > 0 ? server_cpu / requests * 1e6 : 0.0;
-    state.counters["p50_us"] = percentile(result.latency_ns, 0.50);
-    state.counters["p99_us"] = percentile(result.latency_ns, 0.99);
-    state.counters["max_us"] =
-        result.latency_ns.empty()
-            ? 0.0
-            : *std::max_element(result.latency_ns.begin(), result.latency_ns.end()) / 1000.0;
+    ferrule::bench::report(state, result, seconds, server_cpu);
 }
 
 } // namespace

@@ -14,15 +14,10 @@
 // request when the run begins and then nothing until it ends.
 #include <benchmark/benchmark.h>
 
-#include <fcntl.h>
 #include <modbus.h>
 #include <netinet/in.h>
-#include <netinet/tcp.h>
-#include <pthread.h>
-#include <sys/epoll.h>
 #include <sys/select.h>
 #include <sys/socket.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -42,23 +37,17 @@
 
 #include "ferrule/asio/modbus_tcp_server.hpp"
 #include "ferrule/modbus/memory_model.hpp"
+#include "tcp_load.hpp"
 
 namespace {
 
 namespace mb = ferrule::modbus;
-using clock_type = std::chrono::steady_clock;
+using ferrule::bench::clock_type;
+using ferrule::bench::load_result;
+using ferrule::bench::thread_cpu_seconds;
 constexpr int registers = 10;
 constexpr std::size_t max_requests = 400'000;
 constexpr auto run_time = std::chrono::seconds(1);
-
-// The server thread's CPU time.
-double thread_cpu_seconds(std::thread& t) {
-    clockid_t id{};
-    pthread_getcpuclockid(t.native_handle(), &id);
-    timespec ts{};
-    clock_gettime(id, &ts);
-    return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) / 1e9;
-}
 
 // --- servers --------------------------------------------------------------------------------
 
@@ -165,26 +154,16 @@ private:
 
 // --- load -----------------------------------------------------------------------------------
 
-struct load_result {
-    std::vector<std::uint32_t> latency_ns;
-    std::size_t errors = 0;
-};
-
 // One client connection: a request written, its response read, the next request. The
 // socket is non-blocking; the pool's epoll loop tells it when the response is readable.
 class load_client {
 public:
-    explicit load_client(std::uint16_t port) : fd_(socket(AF_INET, SOCK_STREAM, 0)) {
-        sockaddr_in a{};
-        a.sin_family = AF_INET;
-        a.sin_port = htons(port);
-        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-        if (connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) ok_ = false;
-        const int one = 1;
-        setsockopt(fd_, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-        fcntl(fd_, F_SETFL, fcntl(fd_, F_GETFL) | O_NONBLOCK);
+    explicit load_client(std::uint16_t port) : fd_(ferrule::bench::connect_loopback(port)) {
+        if (fd_ < 0) ok_ = false;
     }
-    ~load_client() { close(fd_); }
+    ~load_client() {
+        if (fd_ >= 0) close(fd_);
+    }
     load_client(const load_client&) = delete;
     load_client& operator=(const load_client&) = delete;
     int fd() const { return fd_; }
@@ -247,62 +226,6 @@ private:
     std::uint16_t transaction_ = 0;
 };
 
-// Runs `clients` connections until `end` or max_requests, in one thread with epoll (a load
-// generator lighter than the servers it drives, so that it is not the limit).
-void run_load(std::uint16_t port, int clients, clock_type::time_point end, load_result& out) {
-    std::vector<std::unique_ptr<load_client>> pool;
-    const int ep = epoll_create1(0);
-    for (int i = 0; i < clients; ++i) {
-        pool.push_back(std::make_unique<load_client>(port));
-        epoll_event ev{};
-        ev.events = EPOLLIN;
-        ev.data.ptr = pool.back().get();
-        epoll_ctl(ep, EPOLL_CTL_ADD, pool.back()->fd(), &ev);
-    }
-    std::size_t active = 0;
-    for (auto& c : pool) {
-        if (c->send_request())
-            ++active;
-        else
-            ++out.errors;
-    }
-    std::array<epoll_event, 128> events{};
-    while (active > 0) {
-        const int n = epoll_wait(ep, events.data(), static_cast<int>(events.size()), 1000);
-        if (n <= 0) {
-            ++out.errors; // a response did not come within a second
-            break;
-        }
-        const bool more = clock_type::now() < end && out.latency_ns.size() < max_requests;
-        for (int i = 0; i < n; ++i) {
-            auto* c = static_cast<load_client*>(events[static_cast<std::size_t>(i)].data.ptr);
-            if (!c->on_readable(out)) continue;
-            if (!c->ok()) {
-                ++out.errors;
-                epoll_ctl(ep, EPOLL_CTL_DEL, c->fd(), nullptr);
-                --active;
-                continue;
-            }
-            if (!more) {
-                epoll_ctl(ep, EPOLL_CTL_DEL, c->fd(), nullptr);
-                --active;
-            } else if (!c->send_request()) {
-                ++out.errors;
-                epoll_ctl(ep, EPOLL_CTL_DEL, c->fd(), nullptr);
-                --active;
-            }
-        }
-    }
-    close(ep);
-}
-
-double percentile(std::vector<std::uint32_t>& v, double p) {
-    if (v.empty()) return 0;
-    const auto k = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1));
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-    return v[k] / 1000.0;
-}
-
 template <class Server>
 void load(benchmark::State& state, bool stalled) {
     const int clients = static_cast<int>(state.range(0));
@@ -321,21 +244,14 @@ void load(benchmark::State& state, bool stalled) {
         result.latency_ns.reserve(max_requests);
         const double cpu_before = server.cpu_seconds();
         const auto start = clock_type::now();
-        run_load(server.port(), clients, start + run_time, result);
+        std::vector<std::unique_ptr<load_client>> pool;
+        for (int i = 0; i < clients; ++i)
+            pool.push_back(std::make_unique<load_client>(server.port()));
+        ferrule::bench::run_load(pool, start + run_time, max_requests, result);
         seconds = std::chrono::duration<double>(clock_type::now() - start).count();
         server_cpu = server.cpu_seconds() - cpu_before;
     }
-    if (result.errors > 0) state.SkipWithError("a request failed or returned wrong values");
-    const auto requests = static_cast<double>(result.latency_ns.size());
-    state.counters["requests"] = requests;
-    state.counters["req_per_s"] = requests / seconds;
-    state.counters["server_cpu_us_per_req"] = requests > 0 ? server_cpu / requests * 1e6 : 0.0;
-    state.counters["p50_us"] = percentile(result.latency_ns, 0.50);
-    state.counters["p99_us"] = percentile(result.latency_ns, 0.99);
-    state.counters["max_us"] =
-        result.latency_ns.empty()
-            ? 0.0
-            : *std::max_element(result.latency_ns.begin(), result.latency_ns.end()) / 1000.0;
+    ferrule::bench::report(state, result, seconds, server_cpu);
 }
 
 void ferrule_server_load(benchmark::State& state) {
