@@ -43,6 +43,7 @@
 #include <utility>
 #include <vector>
 
+#include "ferrule/asio/idle_watch.hpp"
 #include "ferrule/asio/reply_writer.hpp"
 #include "ferrule/asio/serial_stream.hpp"
 #include "ferrule/memobus/header.hpp"
@@ -223,7 +224,7 @@ private:
     class connection : public std::enable_shared_from_this<connection> {
     public:
         connection(memobus_server& owner, ::asio::ip::tcp::socket socket, std::size_t channel)
-            : owner_(owner), socket_(std::move(socket)), idle_timer_(socket_.get_executor()),
+            : owner_(owner), socket_(std::move(socket)), idle_(socket_.get_executor()),
               channel_(channel), session_{memobus::server(owner.config_of(channel))} {}
 
         std::size_t channel() const noexcept { return channel_; }
@@ -232,15 +233,16 @@ private:
             std::error_code ec;
             socket_.non_blocking(true, ec);
             socket_.set_option(::asio::ip::tcp::no_delay(true), ec);
-            last_activity_ = steady_now();
-            arm_idle();
+            idle_.touch();
+            idle_.start(owner_.options_.idle_timeout, this->shared_from_this(),
+                        [this] { end(true); });
             read();
         }
 
         void shut() {
             std::error_code ec;
             socket_.close(ec);
-            idle_timer_.cancel();
+            idle_.cancel();
         }
 
     private:
@@ -255,7 +257,7 @@ private:
         void on_read(std::error_code ec, std::size_t n) {
             reading_ = false;
             if (ec) return end(false);
-            last_activity_ = steady_now();
+            idle_.touch();
             rx_pos_ = 0;
             rx_size_ = n;
             feed();
@@ -288,19 +290,6 @@ private:
 
         bool backlogged() const noexcept { return writer_.backlogged(); }
 
-        void arm_idle() {
-            if (owner_.options_.idle_timeout == duration::zero()) return;
-            const auto left = last_activity_ + owner_.options_.idle_timeout - steady_now();
-            idle_timer_.expires_after(
-                std::chrono::duration_cast<std::chrono::steady_clock::duration>(left));
-            idle_timer_.async_wait([self = this->shared_from_this()](std::error_code e) {
-                if (e) return;
-                if (steady_now() - self->last_activity_ >= self->owner_.options_.idle_timeout)
-                    return self->end(true);
-                self->arm_idle();
-            });
-        }
-
         void end(bool idle) {
             if (!socket_.is_open()) return;
             // Counted before the close that the master sees.
@@ -312,7 +301,7 @@ private:
 
         memobus_server& owner_;
         ::asio::ip::tcp::socket socket_;
-        ::asio::steady_timer idle_timer_;
+        idle_watch idle_;
         std::size_t channel_;
         channel_session session_;
         memobus::message_decoder decoder_;
@@ -322,7 +311,6 @@ private:
         bool reading_ = false;
         std::array<std::uint8_t, memobus::max_message> tx_{};
         reply_writer<::asio::ip::tcp::socket> writer_{socket_};
-        time_point last_activity_{};
     };
 
     void accept() {

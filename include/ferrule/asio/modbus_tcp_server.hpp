@@ -30,6 +30,7 @@
 #include <system_error>
 #include <vector>
 
+#include "ferrule/asio/idle_watch.hpp"
 #include "ferrule/asio/reply_writer.hpp"
 #include "ferrule/asio/serial_stream.hpp"
 #include "ferrule/core/session.hpp"
@@ -98,15 +99,16 @@ private:
     public:
         connection(modbus_tcp_server& owner, ::asio::ip::tcp::socket socket)
             : owner_(owner), socket_(std::move(socket)), reply_timer_(socket_.get_executor()),
-              idle_timer_(socket_.get_executor()),
+              idle_(socket_.get_executor()),
               session_(config(owner.options_), modbus::model_ref<M>(owner.model_)) {}
 
         void start() {
             std::error_code ec;
             socket_.non_blocking(true, ec);
             socket_.set_option(::asio::ip::tcp::no_delay(true), ec);
-            last_activity_ = steady_now();
-            arm_idle();
+            idle_.touch();
+            idle_.start(owner_.options_.idle_timeout, this->shared_from_this(),
+                        [this] { end(true); });
             read();
         }
 
@@ -114,7 +116,7 @@ private:
             std::error_code ec;
             socket_.close(ec);
             reply_timer_.cancel();
-            idle_timer_.cancel();
+            idle_.cancel();
         }
 
     private:
@@ -136,7 +138,7 @@ private:
         void on_read(std::error_code ec, std::size_t n) {
             reading_ = false;
             if (ec) return end(false);
-            last_activity_ = steady_now();
+            idle_.touch();
             rx_pos_ = 0;
             rx_size_ = n;
             feed();
@@ -149,7 +151,7 @@ private:
         void feed() {
             while (rx_pos_ < rx_size_ && session_.wake_at() == never) {
                 const std::size_t n = std::min(rx_size_ - rx_pos_, session_type::held_capacity);
-                session_.on_receive({rx_.data() + rx_pos_, n}, last_activity_);
+                session_.on_receive({rx_.data() + rx_pos_, n}, idle_.last());
                 rx_pos_ += n;
                 pump();
                 if (!socket_.is_open()) return;
@@ -192,19 +194,6 @@ private:
 
         bool backlogged() const noexcept { return writer_.backlogged(); }
 
-        void arm_idle() {
-            if (owner_.options_.idle_timeout == duration::zero()) return;
-            const auto left = last_activity_ + owner_.options_.idle_timeout - steady_now();
-            idle_timer_.expires_after(
-                std::chrono::duration_cast<std::chrono::steady_clock::duration>(left));
-            idle_timer_.async_wait([self = this->shared_from_this()](std::error_code e) {
-                if (e) return;
-                if (steady_now() - self->last_activity_ >= self->owner_.options_.idle_timeout)
-                    return self->end(true);
-                self->arm_idle();
-            });
-        }
-
         void end(bool idle) {
             if (!socket_.is_open()) return;
             // Counted before the close that the client sees.
@@ -216,14 +205,13 @@ private:
         modbus_tcp_server& owner_;
         ::asio::ip::tcp::socket socket_;
         ::asio::steady_timer reply_timer_;
-        ::asio::steady_timer idle_timer_;
+        idle_watch idle_;
         session_type session_;
         std::array<std::uint8_t, 512> rx_{};
         std::size_t rx_pos_ = 0;
         std::size_t rx_size_ = 0;
         bool reading_ = false;
         reply_writer<::asio::ip::tcp::socket> writer_{socket_};
-        time_point last_activity_{};
     };
 
     void accept() {
