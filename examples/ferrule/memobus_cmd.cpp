@@ -5,10 +5,8 @@
 // little-endian without doubt (§3.3); --classic takes the MEMOBUS-compatible 03 / 04 / 06 / 10
 // instead, whose register data travel in --data-order (uncertain, §11.1). MB and IB bits
 // travel in SFC 01 / 02 / 05 / 0F at bit address word x 16 + bit.
-#include <asio/connect.hpp>
 #include <asio/ip/tcp.hpp>
 #include <asio/ip/udp.hpp>
-#include <asio/steady_timer.hpp>
 
 #include <array>
 #include <charconv>
@@ -23,6 +21,7 @@
 #include "ferrule/memobus/master.hpp"
 #include "ferrule/memobus/message.hpp"
 #include "ferrule/memobus/names.hpp"
+#include "tcp_link.hpp"
 
 namespace ferrule::cli {
 namespace {
@@ -45,38 +44,33 @@ struct memobus_options {
     std::vector<std::string> values;
 };
 
-// One TCP connection or one connected UDP socket, with its blocking stream.
+// One TCP connection (tcp_link) or one connected UDP socket, with its blocking stream.
 class link {
 public:
     // Resolves, binds --local-port, connects; on failure prints why and returns nullptr.
     static std::unique_ptr<link> open(const memobus_options& o) {
         std::unique_ptr<link> l(new link());
-        std::string name = o.host;
-        std::string port = default_port;
-        if (const auto colon = o.host.rfind(':'); colon != std::string::npos) {
-            name = o.host.substr(0, colon);
-            port = o.host.substr(colon + 1);
+        if (!o.udp) {
+            l->tcp_ = tcp_link::open(
+                o.host, std::chrono::milliseconds(o.common.timeout_ms.value_or(3000)),
+                o.common.trace, {default_port, "MEMOBUS controller", o.local_port});
+            return l->tcp_ ? std::move(l) : nullptr;
         }
-        const auto ec = o.udp ? l->open_udp(name, port, o) : l->open_tcp(name, port, o);
-        if (ec) {
-            fmt::print(stderr, "ferrule: cannot connect to {} ({}): {}\n", o.host,
-                       o.udp ? "UDP" : "TCP", ec.message());
+        const auto [name, port] = split_host_port(o.host, default_port);
+        if (const auto ec = l->open_udp(name, port, o)) {
+            fmt::print(stderr, "ferrule: cannot connect to {} (UDP): {}\n", o.host, ec.message());
             return nullptr;
         }
-        if (o.common.trace) {
-            const auto tap = trace_tap(host::steady_now());
-            l->tcp_stream_.set_tap(tap);
-            l->udp_stream_.set_tap(tap);
-        }
+        if (o.common.trace) l->udp_stream_.set_tap(trace_tap(host::steady_now()));
         return l;
     }
 
     std::error_code transact(mb::master& m) {
-        return udp_.is_open() ? run(udp_stream_, m) : run(tcp_stream_, m);
+        return tcp_ ? run(tcp_->stream(), m) : run(udp_stream_, m);
     }
 
 private:
-    link() : tcp_(ctx_), udp_(ctx_), tcp_stream_(ctx_, tcp_), udp_stream_(ctx_, udp_) {}
+    link() : udp_(ctx_), udp_stream_(ctx_, udp_) {}
 
     std::error_code open_udp(const std::string& name, const std::string& port,
                              const memobus_options& o) {
@@ -91,40 +85,9 @@ private:
         return ec;
     }
 
-    std::error_code open_tcp(const std::string& name, const std::string& port,
-                             const memobus_options& o) {
-        std::error_code ec;
-        ::asio::ip::tcp::resolver resolver(ctx_);
-        const auto found = resolver.resolve(::asio::ip::tcp::v4(), name, port, ec);
-        if (ec) return ec;
-        const auto to = found.begin()->endpoint();
-        tcp_.open(to.protocol(), ec);
-        if (!ec && o.local_port) {
-            tcp_.set_option(::asio::socket_base::reuse_address(true), ec);
-            tcp_.bind({to.protocol(), *o.local_port}, ec);
-        }
-        if (ec) return ec;
-        bool done = false;
-        ::asio::steady_timer timer(ctx_);
-        timer.expires_after(std::chrono::milliseconds(o.common.timeout_ms.value_or(3000)));
-        tcp_.async_connect(to, [&](std::error_code e) {
-            done = true;
-            ec = e;
-            timer.cancel();
-        });
-        timer.async_wait([&](std::error_code e) {
-            if (!e && !done) tcp_.close();
-        });
-        ctx_.run();
-        if (!done || ec == ::asio::error::operation_aborted) return make_error_code(errc::timeout);
-        if (!ec) tcp_.set_option(::asio::ip::tcp::no_delay(true), ec);
-        return ec;
-    }
-
+    std::unique_ptr<tcp_link> tcp_;
     ::asio::io_context ctx_;
-    ::asio::ip::tcp::socket tcp_;
     ::asio::ip::udp::socket udp_;
-    host::tcp_stream tcp_stream_;
     host::udp_stream udp_stream_;
 };
 

@@ -10,14 +10,17 @@
 
 namespace ferrule::cli {
 
+std::pair<std::string, std::string> split_host_port(const std::string& host_port,
+                                                    const std::string& default_port) {
+    if (const auto colon = host_port.rfind(':'); colon != std::string::npos)
+        return {host_port.substr(0, colon), host_port.substr(colon + 1)};
+    return {host_port, default_port};
+}
+
 std::unique_ptr<tcp_link> tcp_link::open(const std::string& host_port,
-                                         std::chrono::milliseconds connect_timeout, bool trace) {
-    std::string name = host_port;
-    std::string port = "502"; // Modbus TCP's registered port (TCP §4.1)
-    if (const auto colon = host_port.rfind(':'); colon != std::string::npos) {
-        name = host_port.substr(0, colon);
-        port = host_port.substr(colon + 1);
-    }
+                                         std::chrono::milliseconds connect_timeout, bool trace,
+                                         const tcp_peer& peer) {
+    const auto [name, port] = split_host_port(host_port, peer.default_port);
     std::unique_ptr<tcp_link> l(new tcp_link());
     std::error_code ec;
     ::asio::ip::tcp::resolver resolver(l->ctx_);
@@ -26,15 +29,32 @@ std::unique_ptr<tcp_link> tcp_link::open(const std::string& host_port,
         fmt::print(stderr, "ferrule: cannot resolve {}: {}\n", host_port, ec.message());
         return nullptr;
     }
+    if (peer.local_port) {
+        const auto protocol = endpoints.begin()->endpoint().protocol();
+        l->socket_.open(protocol, ec);
+        if (!ec) l->socket_.set_option(::asio::socket_base::reuse_address(true), ec);
+        if (!ec) l->socket_.bind({protocol, *peer.local_port}, ec);
+        if (ec) {
+            fmt::print(stderr, "ferrule: cannot bind local port {}: {}\n", *peer.local_port,
+                       ec.message());
+            return nullptr;
+        }
+    }
     bool done = false;
     ::asio::steady_timer timer(l->ctx_);
     timer.expires_after(connect_timeout);
-    ::asio::async_connect(l->socket_, endpoints,
-                          [&](std::error_code e, const ::asio::ip::tcp::endpoint&) {
-                              done = true;
-                              ec = e;
-                              timer.cancel();
-                          });
+    // A bound socket keeps its local port: connect it to the first address as it is.
+    const auto connected = [&](std::error_code e) {
+        done = true;
+        ec = e;
+        timer.cancel();
+    };
+    if (peer.local_port)
+        l->socket_.async_connect(endpoints.begin()->endpoint(), connected);
+    else
+        ::asio::async_connect(
+            l->socket_, endpoints,
+            [&](std::error_code e, const ::asio::ip::tcp::endpoint&) { connected(e); });
     timer.async_wait([&](std::error_code e) {
         if (!e && !done) l->socket_.close();
     });
@@ -46,9 +66,8 @@ std::unique_ptr<tcp_link> tcp_link::open(const std::string& host_port,
     }
     if (ec == ::asio::error::connection_refused) {
         fmt::print(stderr,
-                   "ferrule: cannot connect to {}: connection refused (no Modbus TCP server "
-                   "listens on port {})\n",
-                   host_port, port);
+                   "ferrule: cannot connect to {}: connection refused (no {} listens on port {})\n",
+                   host_port, peer.server, port);
         return nullptr;
     }
     if (ec) {

@@ -1,4 +1,5 @@
-// A Modbus TCP connection for the CLI: resolve, connect with a timeout, a blocking stream.
+// A TCP connection for the CLI (Modbus TCP, Extended MEMOBUS): resolve, bind a local port if
+// asked, connect with a timeout, a blocking stream.
 #pragma once
 
 #include <asio/io_context.hpp>
@@ -7,18 +8,31 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 
 #include "ferrule/asio/serial_stream.hpp"
 
 namespace ferrule::cli {
 
+// "host" or "host:port": the name and the port, `default_port` when none is given.
+std::pair<std::string, std::string> split_host_port(const std::string& host_port,
+                                                    const std::string& default_port);
+
+struct tcp_peer {
+    std::string default_port = "502";          // Modbus TCP's registered port (TCP §4.1)
+    std::string server = "Modbus TCP server";  // for "no … listens on port N"
+    std::optional<std::uint16_t> local_port{}; // bind before connecting
+};
+
 class tcp_link {
 public:
-    // "host" or "host:port" (port 502 when none is given); on failure prints why (refused,
-    // unknown host, no answer within `connect_timeout`) and returns nullptr.
+    // "host" or "host:port"; on failure prints why (refused, unknown host, no answer within
+    // `connect_timeout`) and returns nullptr.
     static std::unique_ptr<tcp_link> open(const std::string& host_port,
-                                          std::chrono::milliseconds connect_timeout, bool trace);
+                                          std::chrono::milliseconds connect_timeout, bool trace,
+                                          const tcp_peer& peer = {});
     host::tcp_stream& stream() noexcept { return stream_; }
 
 private:
