@@ -8,7 +8,6 @@
 #include <array>
 #include <cctype>
 #include <chrono>
-#include <cmath>
 #include <thread>
 #include <vector>
 
@@ -145,17 +144,6 @@ int cmd_diag(context& c) {
     return exit_ok;
 }
 
-// Watchdog = WD_Fact_1 × WD_Fact_2 × 10 ms (§B.5): exact when the factors allow, else the
-// next longer time.
-std::array<std::uint8_t, 2> watchdog_factors(unsigned ms) {
-    const unsigned units = std::max(1u, (ms + 9) / 10);
-    const auto root = static_cast<unsigned>(std::ceil(std::sqrt(static_cast<double>(units))));
-    for (unsigned f1 = root; f1 <= 255; ++f1)
-        if (units % f1 == 0 && units / f1 <= 255)
-            return {static_cast<std::uint8_t>(f1), static_cast<std::uint8_t>(units / f1)};
-    return {static_cast<std::uint8_t>(root), static_cast<std::uint8_t>((units + root - 1) / root)};
-}
-
 // Set_Prm's data from the options; the ident is given by the caller.
 pb::prm_data prm_from_options(const profibus_options& o, std::uint16_t ident,
                               std::span<const std::uint8_t> user) {
@@ -166,9 +154,7 @@ pb::prm_data prm_from_options(const profibus_options& o, std::uint16_t ident,
     if (o.lock) p.station_status |= pb::prm::lock_req;
     if (o.watchdog_ms) {
         p.station_status |= pb::prm::wd_on;
-        const auto f = watchdog_factors(*o.watchdog_ms);
-        p.wd_fact1 = f[0];
-        p.wd_fact2 = f[1];
+        p.set_watchdog_ms(*o.watchdog_ms);
     }
     return p;
 }

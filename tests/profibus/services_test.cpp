@@ -74,3 +74,20 @@ TEST_CASE("profibus configuration identifiers give the I/O sizes", "[profibus]")
     CHECK(cfg_io_sizes(bytes{0x40}).error() == errc::malformed);
     CHECK(cfg_io_sizes(bytes{0x82, 0x01}).error() == errc::malformed);
 }
+
+TEST_CASE("profibus Set_Prm watchdog factors for a time in milliseconds", "[profibus]") {
+    prm_data p;
+    p.set_watchdog_ms(1000); // 100 units: 10 × 10
+    CHECK(p.wd_fact1 == 10);
+    CHECK(p.wd_fact2 == 10);
+    p.set_watchdog_ms(1950); // the S7's 13 × 15
+    CHECK(p.watchdog() == std::chrono::milliseconds(1950));
+    p.set_watchdog_ms(5); // rounded up to one unit
+    CHECK(p.watchdog() == std::chrono::milliseconds(10));
+    p.set_watchdog_ms(2570); // 257 units, a prime above 255: the next time that splits
+    CHECK(p.watchdog() >= std::chrono::milliseconds(2570));
+    CHECK(p.watchdog() < std::chrono::milliseconds(2570 + 10 * 17));
+    p.set_watchdog_ms(650'250); // the largest: 255 × 255
+    CHECK(p.wd_fact1 == 255);
+    CHECK(p.wd_fact2 == 255);
+}

@@ -9,6 +9,7 @@
 //   Global_Control     Control_Command, Group_Select
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -78,6 +79,21 @@ struct prm_data {
     // WD_Fact_1 × WD_Fact_2 × 10 ms (§B.5; DP-V0: the 1 ms base of DP-V1 is not used).
     constexpr duration watchdog() const noexcept {
         return std::chrono::milliseconds(10) * (unsigned{wd_fact1} * wd_fact2);
+    }
+    // The factors for a watchdog of at least `ms` milliseconds (at most 255 × 255 × 10 ms):
+    // an exact split of the 10 ms units when there is one, the factors near its square root.
+    constexpr void set_watchdog_ms(unsigned ms) noexcept {
+        const unsigned units = std::max(1u, (ms + 9) / 10);
+        unsigned root = 1;
+        while (root * root < units) ++root;
+        for (unsigned f1 = root; f1 <= 255; ++f1)
+            if (units % f1 == 0 && units / f1 <= 255) {
+                wd_fact1 = static_cast<std::uint8_t>(f1);
+                wd_fact2 = static_cast<std::uint8_t>(units / f1);
+                return;
+            }
+        wd_fact1 = static_cast<std::uint8_t>(root);
+        wd_fact2 = static_cast<std::uint8_t>((units + root - 1) / root);
     }
 };
 
