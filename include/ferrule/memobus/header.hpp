@@ -21,6 +21,7 @@
 
 #include "ferrule/core/bytes.hpp"
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/frame_scanner.hpp"
 #include "ferrule/core/result.hpp"
 #include "ferrule/memobus/constants.hpp"
 
@@ -93,73 +94,25 @@ inline result<header> parse_message(std::span<const std::uint8_t> datagram) noex
 // with an unknown type, a total length below its minimum or above max_message (a length of
 // 65535, say), or a MEMOBUS length that does not agree is errc::malformed, reported once per
 // run; one byte is dropped and framing tried again from the next.
-class message_decoder {
+class message_decoder : public frame_scanner<message_decoder, max_message> {
 public:
-    enum class status : std::uint8_t { need_more, frame, error };
-    struct step {
-        status what = status::need_more;
-        std::size_t consumed = 0; // bytes of the input used; feed the rest again
-        std::error_code ec{};
-    };
-
-    step feed(std::span<const std::uint8_t> in) noexcept {
-        take_frame();
-        if (size_ > 0) {
-            const step s = scan();
-            if (s.what != status::need_more) return s;
-        }
-        std::size_t used = 0;
-        while (used < in.size()) {
-            // Bytes up to the end of the header, then up to the end of the message, at once.
-            const std::size_t want = wanted();
-            const std::size_t n = std::min(in.size() - used, want);
-            for (std::size_t i = 0; i < n; ++i) buf_[size_ + i] = in[used + i];
-            size_ += n;
-            used += n;
-            step s = scan();
-            if (s.what != status::need_more) {
-                s.consumed = used;
-                return s;
-            }
-        }
-        return {status::need_more, in.size(), {}};
-    }
-
     // The message just yielded (valid until the next feed() or reset()).
     std::span<const std::uint8_t> message() const noexcept { return {buf_.data(), frame_size_}; }
     memobus::header header() const noexcept { return load_header(buf_.data()); }
     // The MEMOBUS part: length field, MFC, SFC, CPU, body (commands and responses).
     std::span<const std::uint8_t> body() const noexcept { return message().subspan(header_size); }
 
-    void reset() noexcept {
-        size_ = frame_size_ = 0;
-        garbage_ = false;
-    }
-    bool in_message() const noexcept { return size_ > frame_size_; }
-    std::size_t skipped() const noexcept { return skipped_; }
+    bool in_message() const noexcept { return in_frame(); }
 
 private:
-    // Bytes still to read before scan() can say more.
+    friend frame_scanner;
+    static constexpr bool reads_ahead = true;
+
+    // Bytes up to the end of the header, then up to the end of the message, at once.
     std::size_t wanted() const noexcept {
         if (size_ < header_size) return header_size - size_;
         const std::size_t n = detail::expected_length({buf_.data(), size_});
         return n == 0 || n == detail::no_message || n <= size_ ? 1 : n - size_;
-    }
-
-    void take_frame() noexcept {
-        if (frame_size_ == 0) return;
-        for (std::size_t i = frame_size_; i < size_; ++i) buf_[i - frame_size_] = buf_[i];
-        size_ -= frame_size_;
-        frame_size_ = 0;
-    }
-
-    bool drop() noexcept {
-        for (std::size_t i = 1; i < size_; ++i) buf_[i - 1] = buf_[i];
-        --size_;
-        ++skipped_;
-        const bool report = !garbage_;
-        garbage_ = true;
-        return report;
     }
 
     step scan() noexcept {
@@ -172,21 +125,13 @@ private:
             const bool length_in = size_ >= header_size + length_size;
             if (n == detail::no_message ||
                 (length_in && !detail::length_agrees({buf_.data(), std::min(n, size_)}, n))) {
-                if (drop()) return {status::error, 0, errc::malformed};
+                if (drop_garbage()) return {status::error, 0, errc::malformed};
                 continue;
             }
             if (size_ < n) return {};
-            frame_size_ = n;
-            garbage_ = false;
-            return {status::frame, 0, {}};
+            return yield(n);
         }
     }
-
-    std::array<std::uint8_t, max_message> buf_{};
-    std::size_t size_ = 0;
-    std::size_t frame_size_ = 0;
-    std::size_t skipped_ = 0;
-    bool garbage_ = false;
 };
 
 } // namespace ferrule::memobus

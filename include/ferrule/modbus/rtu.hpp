@@ -16,6 +16,7 @@
 
 #include "ferrule/core/checksum.hpp"
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/frame_scanner.hpp"
 #include "ferrule/core/result.hpp"
 #include "ferrule/modbus/constants.hpp"
 #include "ferrule/modbus/pdu.hpp"
@@ -46,35 +47,26 @@ inline result<std::size_t> encode_rtu(std::uint8_t address, std::span<const std:
 // made. A client's decoder is basic_rtu_decoder<Fs, false>: it frames only responses, and
 // only those of the functions in Fs (see function_set), so firmware carries no other.
 template <function_set Fs = all_functions, bool Requests = true>
-class basic_rtu_decoder {
+class basic_rtu_decoder : public frame_scanner<basic_rtu_decoder<Fs, Requests>, max_rtu_adu> {
+    using base = frame_scanner<basic_rtu_decoder<Fs, Requests>, max_rtu_adu>;
+    friend base;
+    using base::buf_;
+    using base::drop_failed;
+    using base::drop_garbage;
+    using base::frame_size_;
+    using base::garbage_;
+    using base::size_;
+    using base::take_frame;
+    using base::view;
+    using base::yield;
+
 public:
     enum class accept : std::uint8_t { responses, requests };
-    enum class status : std::uint8_t { need_more, frame, error };
-    struct step {
-        status what = status::need_more;
-        std::size_t consumed = 0; // bytes of the input used; feed the rest again
-        std::error_code ec{};
-    };
+    using typename base::status;
+    using typename base::step;
 
     basic_rtu_decoder() noexcept = default; // responses
     explicit basic_rtu_decoder(accept a) noexcept requires Requests : accept_(a) {}
-
-    step feed(std::span<const std::uint8_t> in) noexcept {
-        take_frame();
-        if (size_ > 0) {
-            const step s = scan();
-            if (s.what != status::need_more) return s;
-        }
-        for (std::size_t i = 0; i < in.size(); ++i) {
-            buf_[size_++] = in[i];
-            step s = scan();
-            if (s.what != status::need_more) {
-                s.consumed = i + 1;
-                return s;
-            }
-        }
-        return {status::need_more, in.size(), {}};
-    }
 
     // The line has been silent for t3.5 (SL §2.5.1.1): no byte will complete what is
     // buffered. Call it like feed(), until need_more: it drops bytes from the front (one
@@ -90,12 +82,9 @@ public:
             if (size_ == 0) break;
             const auto pdu = std::span<const std::uint8_t>(buf_.data() + 1, size_ - 1);
             if (requests() && size_ >= 4 && expected_request_length(pdu) == no_frame &&
-                crc16_modbus(view(size_)) == 0) {
-                frame_size_ = size_;
-                garbage_ = false;
-                return {status::frame, 0, {}};
-            }
-            if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
+                crc16_modbus(view(size_)) == 0)
+                return yield(size_);
+            if (drop_garbage()) return {status::error, 0, errc::malformed};
         }
         garbage_ = false;
         return {};
@@ -109,42 +98,12 @@ public:
     }
     std::span<const std::uint8_t> adu() const noexcept { return {buf_.data(), frame_size_}; }
 
-    void reset() noexcept {
-        size_ = frame_size_ = 0;
-        garbage_ = false;
-    }
-    // Bytes are buffered that may become a frame.
-    bool in_frame() const noexcept { return size_ > frame_size_; }
-    // Bytes dropped: garbage, bytes of frames with a bad CRC, leftovers at finish().
-    std::size_t skipped() const noexcept { return skipped_; }
-
 private:
-    std::span<const std::uint8_t> view(std::size_t n) const noexcept { return {buf_.data(), n}; }
-
     constexpr bool requests() const noexcept {
         if constexpr (Requests)
             return accept_ == accept::requests;
         else
             return false;
-    }
-
-    // The previous frame's bytes leave the buffer; bytes behind it are looked at again.
-    void take_frame() noexcept {
-        if (frame_size_ == 0) return;
-        for (std::size_t i = frame_size_; i < size_; ++i) buf_[i - frame_size_] = buf_[i];
-        size_ -= frame_size_;
-        frame_size_ = 0;
-    }
-
-    // Drops the first byte, so the next scan() starts from the one after it. A malformed
-    // byte right after another is not reported again.
-    bool drop(std::error_code ec) noexcept {
-        for (std::size_t i = 1; i < size_; ++i) buf_[i - 1] = buf_[i];
-        --size_;
-        ++skipped_;
-        const bool report = ec != errc::malformed || !garbage_;
-        garbage_ = ec == errc::malformed;
-        return report;
     }
 
     // Looks at the buffered bytes until a frame, a reported error, or the need for more.
@@ -159,27 +118,20 @@ private:
                 // A request of an unknown function code waits for finish() (the silence after
                 // it), as long as it can still fit an ADU.
                 if (requests() && size_ < max_rtu_adu) return {};
-                if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
+                if (drop_garbage()) return {status::error, 0, errc::malformed};
                 continue;
             }
             const std::size_t total = len + 3;
             if (size_ < total) return {};
             if (crc16_modbus(view(total)) != 0) {
-                drop(errc::bad_checksum);
+                drop_failed();
                 return {status::error, 0, errc::bad_checksum};
             }
-            frame_size_ = total;
-            garbage_ = false;
-            return {status::frame, 0, {}};
+            return yield(total);
         }
     }
 
-    std::array<std::uint8_t, max_rtu_adu> buf_{};
-    std::size_t size_ = 0;       // bytes buffered
-    std::size_t frame_size_ = 0; // a frame was yielded: its bytes at the front
-    std::size_t skipped_ = 0;
     accept accept_ = accept::responses;
-    bool garbage_ = false; // a run of dropped bytes has been reported
 };
 
 using rtu_decoder = basic_rtu_decoder<>;

@@ -16,6 +16,7 @@
 
 #include "ferrule/core/bytes.hpp"
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/frame_scanner.hpp"
 #include "ferrule/core/result.hpp"
 #include "ferrule/modbus/constants.hpp"
 
@@ -38,32 +39,8 @@ inline result<std::size_t> encode_tcp(std::uint16_t transaction, std::uint8_t un
 // Splits a TCP byte stream into ADUs; the step API of rtu_decoder. A header with a protocol
 // id other than 0 or a length outside 2…254 is errc::malformed (reported once per run);
 // one byte is dropped and framing tried again from the next.
-class tcp_decoder {
+class tcp_decoder : public frame_scanner<tcp_decoder, max_tcp_adu> {
 public:
-    enum class status : std::uint8_t { need_more, frame, error };
-    struct step {
-        status what = status::need_more;
-        std::size_t consumed = 0;
-        std::error_code ec{};
-    };
-
-    step feed(std::span<const std::uint8_t> in) noexcept {
-        take_frame();
-        if (size_ > 0) {
-            const step s = scan();
-            if (s.what != status::need_more) return s;
-        }
-        for (std::size_t i = 0; i < in.size(); ++i) {
-            buf_[size_++] = in[i];
-            step s = scan();
-            if (s.what != status::need_more) {
-                s.consumed = i + 1;
-                return s;
-            }
-        }
-        return {status::need_more, in.size(), {}};
-    }
-
     // The frame just yielded (valid until the next feed() or reset()).
     std::uint16_t transaction() const noexcept {
         return frame_size_ ? load_be16(buf_.data()) : std::uint16_t{0};
@@ -75,20 +52,8 @@ public:
     }
     std::span<const std::uint8_t> adu() const noexcept { return {buf_.data(), frame_size_}; }
 
-    void reset() noexcept {
-        size_ = frame_size_ = 0;
-        garbage_ = false;
-    }
-    bool in_frame() const noexcept { return size_ > frame_size_; }
-    std::size_t skipped() const noexcept { return skipped_; }
-
 private:
-    void take_frame() noexcept {
-        if (frame_size_ == 0) return;
-        for (std::size_t i = frame_size_; i < size_; ++i) buf_[i - frame_size_] = buf_[i];
-        size_ -= frame_size_;
-        frame_size_ = 0;
-    }
+    friend frame_scanner;
 
     step scan() noexcept {
         for (;;) {
@@ -98,25 +63,11 @@ private:
             const bool bad_length = size_ >= 6 && (length < 2 || length > max_pdu + 1);
             if (!bad_protocol && !bad_length) {
                 if (size_ < 6 || size_ < 6 + length) return {};
-                frame_size_ = 6 + length;
-                garbage_ = false;
-                return {status::frame, 0, {}};
+                return yield(6 + length);
             }
-            for (std::size_t i = 1; i < size_; ++i) buf_[i - 1] = buf_[i];
-            --size_;
-            ++skipped_;
-            if (!garbage_) {
-                garbage_ = true;
-                return {status::error, 0, errc::malformed};
-            }
+            if (drop_garbage()) return {status::error, 0, errc::malformed};
         }
     }
-
-    std::array<std::uint8_t, max_tcp_adu> buf_{};
-    std::size_t size_ = 0;
-    std::size_t frame_size_ = 0;
-    std::size_t skipped_ = 0;
-    bool garbage_ = false;
 };
 
 } // namespace ferrule::modbus

@@ -25,6 +25,7 @@
 #include <system_error>
 
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/frame_scanner.hpp"
 #include "ferrule/core/result.hpp"
 #include "ferrule/profibus/constants.hpp"
 
@@ -123,32 +124,8 @@ inline result<std::size_t> encode(const telegram& t, std::span<std::uint8_t> out
 // need_more: every byte given is used and no telegram is complete. Each FCS error is
 // reported (errc::bad_checksum); a run of bytes that start no telegram, a wrong LEr, second
 // SD2 or ED once (errc::malformed).
-class fdl_decoder {
+class fdl_decoder : public frame_scanner<fdl_decoder, max_telegram> {
 public:
-    enum class status : std::uint8_t { need_more, frame, error };
-    struct step {
-        status what = status::need_more;
-        std::size_t consumed = 0; // bytes of the input used; feed the rest again
-        std::error_code ec{};
-    };
-
-    step feed(std::span<const std::uint8_t> in) noexcept {
-        take_frame();
-        if (size_ > 0) {
-            const step s = scan();
-            if (s.what != status::need_more) return s;
-        }
-        for (std::size_t i = 0; i < in.size(); ++i) {
-            buf_[size_++] = in[i];
-            step s = scan();
-            if (s.what != status::need_more) {
-                s.consumed = i + 1;
-                return s;
-            }
-        }
-        return {status::need_more, in.size(), {}};
-    }
-
     // The line has been idle (a telegram has no gaps inside, §B.1): what is buffered will not
     // be completed. Call like feed() until need_more; drops bytes until a telegram or nothing
     // is left.
@@ -158,7 +135,7 @@ public:
             const step s = scan();
             if (s.what != status::need_more) return s;
             if (size_ == 0) break;
-            if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
+            if (drop_garbage()) return {status::error, 0, errc::malformed};
         }
         garbage_ = false;
         return {};
@@ -169,29 +146,8 @@ public:
     const profibus::telegram& telegram() const noexcept { return t_; }
     std::span<const std::uint8_t> bytes() const noexcept { return {buf_.data(), frame_size_}; }
 
-    void reset() noexcept {
-        size_ = frame_size_ = 0;
-        garbage_ = false;
-    }
-    bool in_frame() const noexcept { return size_ > frame_size_; }
-    std::size_t skipped() const noexcept { return skipped_; }
-
 private:
-    void take_frame() noexcept {
-        if (frame_size_ == 0) return;
-        for (std::size_t i = frame_size_; i < size_; ++i) buf_[i - frame_size_] = buf_[i];
-        size_ -= frame_size_;
-        frame_size_ = 0;
-    }
-
-    bool drop(std::error_code ec) noexcept {
-        for (std::size_t i = 1; i < size_; ++i) buf_[i - 1] = buf_[i];
-        --size_;
-        ++skipped_;
-        const bool report = ec != errc::malformed || !garbage_;
-        garbage_ = ec == errc::malformed;
-        return report;
-    }
+    friend frame_scanner;
 
     // Telegram length from the first bytes: 0 = need more; `bad` = these bytes start none.
     static constexpr std::size_t bad = static_cast<std::size_t>(-1);
@@ -217,7 +173,7 @@ private:
             const std::size_t len = expected();
             if (len == 0) return {};
             if (len == bad) {
-                if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
+                if (drop_garbage()) return {status::error, 0, errc::malformed};
                 continue;
             }
             if (size_ < len) return {};
@@ -226,24 +182,22 @@ private:
                 const auto body =
                     std::span<const std::uint8_t>(buf_.data() + header, len - header - 2);
                 if (buf_[len - 1] != ed) {
-                    if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
+                    if (drop_garbage()) return {status::error, 0, errc::malformed};
                     continue;
                 }
                 if (fcs(body) != buf_[len - 2]) {
-                    drop(errc::bad_checksum);
+                    drop_failed();
                     return {status::error, 0, errc::bad_checksum};
                 }
                 if (!parse(body)) {
-                    if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
+                    if (drop_garbage()) return {status::error, 0, errc::malformed};
                     continue;
                 }
             } else if (!parse_short()) {
-                if (drop(errc::malformed)) return {status::error, 0, errc::malformed};
+                if (drop_garbage()) return {status::error, 0, errc::malformed};
                 continue;
             }
-            frame_size_ = len;
-            garbage_ = false;
-            return {status::frame, 0, {}};
+            return yield(len);
         }
     }
 
@@ -283,12 +237,7 @@ private:
         return true;
     }
 
-    std::array<std::uint8_t, max_telegram> buf_{};
-    std::size_t size_ = 0;
-    std::size_t frame_size_ = 0;
-    std::size_t skipped_ = 0;
     profibus::telegram t_{};
-    bool garbage_ = false;
 };
 
 } // namespace ferrule::profibus
