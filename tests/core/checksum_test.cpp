@@ -41,3 +41,24 @@ TEST_CASE("sum8 check value and wrap-around", "[core][checksum]") {
     const std::array<std::uint8_t, 3> t{0xFF, 0x02, 0x00};
     CHECK(ferrule::sum8(t) == 0x01);
 }
+
+TEST_CASE("crc16_modbus: the bitwise and the table-driven form agree", "[core][checksum]") {
+    using ferrule::detail::crc16_modbus_bitwise;
+    using ferrule::detail::crc16_modbus_table_driven;
+    CHECK(crc16_modbus_bitwise(ascii("123456789"), 0xFFFF) == 0x4B37);
+    CHECK(crc16_modbus_table_driven(ascii("123456789"), 0xFFFF) == 0x4B37);
+    // Every byte value from every starting register value a byte before could leave.
+    std::array<std::uint8_t, 1> b{};
+    unsigned differ = 0;
+    for (unsigned crc = 0; crc < 0x10000; crc += 0x0101)
+        for (unsigned v = 0; v < 256; ++v) {
+            b[0] = static_cast<std::uint8_t>(v);
+            const auto c = static_cast<std::uint16_t>(crc);
+            if (crc16_modbus_bitwise(b, c) != crc16_modbus_table_driven(b, c)) ++differ;
+        }
+    CHECK(differ == 0);
+    // A whole RTU frame: the CRC over the frame with its CRC appended is 0.
+    const std::array<std::uint8_t, 8> frame{0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A};
+    CHECK(crc16_modbus_bitwise(frame, 0xFFFF) == 0);
+    CHECK(crc16_modbus_table_driven(frame, 0xFFFF) == 0);
+}
