@@ -1,30 +1,35 @@
 #!/usr/bin/env bash
-# Usage: tools/firmware-size.sh [-v] <elf> <namespace-regex> [<exclude-regex>]
+# Usage: tools/firmware-size.sh [-v] [-r] <elf> <namespace-regex> [<exclude-regex>]
 #
 # Sums the sizes of the code symbols (.text: nm types t/T, and w/W, which is where the inline
 # functions and template instantiations of a header-only library end up) of <elf> whose
 # demangled name matches the extended regex <namespace-regex> (and not <exclude-regex>, if
-# given), and prints the total in bytes on stdout. Symbols sharing an address are counted once. Read-only data (tables) is not counted. With -v the matching symbols are listed
-# on stderr, largest last.
+# given), and prints the total in bytes on stdout. Symbols sharing an address are counted once.
+# Read-only data (tables, vtables) is counted only with -r: then the named objects in .rodata*
+# that match are added (objdump -t). With -v the matching symbols are listed on stderr,
+# largest last.
 #   tools/firmware-size.sh build/firmware/examples/firmware/movilink_master.elf 'ferrule::movilink::'
 # MOVILINK codec + master session (no cyclic layer, no error-message texts):
 #   tools/firmware-size.sh <elf> 'ferrule::' 'ferrule::movilink::cyclic::|_category_t::|^board::'
-# NM overrides the nm binary (default arm-none-eabi-nm).
+# NM and OBJDUMP override the binaries (default arm-none-eabi-nm, arm-none-eabi-objdump).
 set -euo pipefail
 
 verbose=0
-if [[ ${1:-} == -v ]]; then
-    verbose=1
+rodata=0
+while [[ ${1:-} == -[vr] ]]; do
+    [[ $1 == -v ]] && verbose=1
+    [[ $1 == -r ]] && rodata=1
     shift
-fi
+done
 if [[ $# -ne 2 && $# -ne 3 ]]; then
-    echo "usage: $0 [-v] <elf> <namespace-regex> [<exclude-regex>]" >&2
+    echo "usage: $0 [-v] [-r] <elf> <namespace-regex> [<exclude-regex>]" >&2
     exit 2
 fi
 elf=$1
 regex=$2
 exclude=${3:-}
 nm=${NM:-arm-none-eabi-nm}
+objdump=${OBJDUMP:-arm-none-eabi-objdump}
 [[ -f $elf ]] || { echo "$0: no such file: $elf" >&2; exit 2; }
 
 symbols=$("$nm" --size-sort -C -S "$elf")
@@ -41,4 +46,20 @@ while read -r addr size type name; do
         printf '%8d %s\n' "$((16#$size))" "$name" >&2
     fi
 done <<<"$symbols"
+if ((rodata)); then
+    # objdump -t: "<addr> <7 flag columns> <section>\t<size> <name>"
+    re_obj=$'^([0-9a-f]+) .{6}O (\\.rodata[^\t]*)\t([0-9a-f]+) (.*)$'
+    while IFS= read -r line; do
+        [[ $line =~ $re_obj ]] || continue
+        addr=${BASH_REMATCH[1]} size=${BASH_REMATCH[3]} name=${BASH_REMATCH[4]}
+        [[ $name =~ $regex ]] || continue
+        [[ -n $exclude && $name =~ $exclude ]] && continue
+        [[ -z ${seen[$addr]:-} ]] || continue
+        seen[$addr]=1
+        total=$((total + 16#$size))
+        if ((verbose)); then
+            printf '%8d %s (rodata)\n' "$((16#$size))" "$name" >&2
+        fi
+    done < <("$objdump" -t -C "$elf")
+fi
 echo "$total"
