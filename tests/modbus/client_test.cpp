@@ -595,7 +595,7 @@ TEST_CASE("modbus client refuses a second start while busy and reports transport
 // A client built for FC 3 only: it refuses FC 6 before anything goes on the line, and reads
 // as the full client does; a response of a function it does not know is garbage to it.
 TEST_CASE("modbus client with a function set: others refused, its own served", "[modbus][client]") {
-    using fc3_client = basic_client<client_link::rtu, functions<function::read_holding_registers>>;
+    using fc3_client = basic_client<link_mode::rtu, functions<function::read_holding_registers>>;
     const bytes fc6_echo = adu(1, {0x06, 0, 0, 0, 1});
     const std::array<script_step, 2> steps{answer(read1, value42, 5ms),
                                            answer(read1, fc6_echo, 5ms)};

@@ -482,3 +482,22 @@ TEST_CASE("modbus server: execute() answers a PDU without a transport", "[modbus
     CHECK(out[1] == 0x03);
     CHECK(s.execute({}, out) == 0);
 }
+
+TEST_CASE("modbus server: a link fixed at compile time overrides the configured transport",
+          "[modbus][server]") {
+    const byte_vector read_one{0x03, 0x00, 0x00, 0x00, 0x01};
+    const byte_vector reply{0x03, 0x02, 0x12, 0x34};
+
+    // RTU firmware: configured for TCP, it still frames by CRC and answers in RTU.
+    server<model, link_mode::rtu> r(tcp_config());
+    CHECK(r.config().transport == transport::rtu);
+    r.model().holding_registers()[0] = 0x1234;
+    CHECK(ask(r, rtu(1, read_one)) == rtu(1, reply));
+    CHECK(r.wake_at() == never);
+
+    // A TCP server: configured for RTU, it answers MBAP requests with their transaction id.
+    server<model, link_mode::tcp> t(rtu_config());
+    CHECK(t.config().transport == transport::tcp);
+    t.model().holding_registers()[0] = 0x1234;
+    CHECK(ask(t, tcp(0x0102, 1, read_one)) == tcp(0x0102, 1, reply));
+}

@@ -24,7 +24,7 @@ constexpr auto format = ferrule::modbus::default_format;
 board::uart_stream uart(format);
 // RTU only, FC 3 and 6 only: the TCP path and the other function codes are not compiled in.
 using client_type = ferrule::modbus::basic_client<
-    ferrule::modbus::client_link::rtu,
+    ferrule::modbus::link_mode::rtu,
     ferrule::modbus::functions<ferrule::modbus::function::read_holding_registers,
                                ferrule::modbus::function::write_single_register>>;
 client_type session([] {

@@ -1,7 +1,8 @@
 // Modbus RTU server on a Cortex-M4 (STM32F4 register layout, USART2 on an RS-485
 // transceiver): unit 17 at 19200 8E1 serves a memory_model of 32 coils, 32 discrete inputs,
 // 64 holding and 32 input registers to a PLC, with FC 1-6, 15, 16, 23, 8 (diagnostics) and
-// 43/14 (device identification), from a super-loop that never blocks and uses no heap.
+// 43/14 (device identification), from a super-loop that never blocks and uses no heap. The
+// link is fixed to RTU at compile time, so no TCP framing is compiled in.
 // The application mirrors the coils to outputs and its inputs to the discrete inputs and
 // input registers between requests.
 //
@@ -21,7 +22,7 @@ constexpr auto format = ferrule::modbus::default_format;
 using model = ferrule::modbus::memory_model<32, 32, 64, 32>;
 
 board::uart_stream uart(format);
-ferrule::modbus::server<model> session(
+ferrule::modbus::server<model, ferrule::modbus::link_mode::rtu> session(
     [] {
         ferrule::modbus::server_config c;
         c.units = {17};

@@ -112,7 +112,7 @@ inline constexpr std::size_t diag_block_size = 8;
 class core {
 public:
     static constexpr std::size_t max_buffers = 4;
-    using client_type = modbus::basic_client<modbus::client_link::rtu>;
+    using client_type = modbus::basic_client<modbus::link_mode::rtu>;
 
     explicit core(const config& c) noexcept
         : cfg_(c), dp_(c.dp), mb_(rtu(c.modbus)), list_(c.transactions, c.nodes),

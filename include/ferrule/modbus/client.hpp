@@ -84,17 +84,15 @@ struct client_stats {
     std::uint32_t echo_bytes = 0;
 };
 
-// Which link a client speaks: chosen by client_config::rtu at run time (any), or fixed at
-// compile time, so firmware for one link does not carry the other's code.
-enum class client_link : std::uint8_t { any, rtu, tcp };
-
 // Fs: the function codes the client can send (function_set); start() refuses others with
 // errc::invalid_argument, and their code is not compiled in.
-template <client_link Link = client_link::any, function_set Fs = all_functions>
+template <link_mode Link = link_mode::any, function_set Fs = all_functions>
 class basic_client {
 public:
-    explicit basic_client(const client_config& cfg = {}) noexcept : cfg_(cfg) {
-        if constexpr (Link != client_link::any) cfg_.rtu = Link == client_link::rtu;
+    explicit basic_client(const client_config& cfg = {}) noexcept
+        : cfg_(cfg), char_time_(cfg.format.char_time()), silence_(t35(cfg.format) + char_time_),
+          adu_time_(cfg.format.chars_time(max_rtu_adu)) {
+        if constexpr (Link != link_mode::any) cfg_.rtu = Link == link_mode::rtu;
     }
 
     // Starts a transaction with `unit`. RTU: 1…247, or 0 (broadcast) for FC 5, 6, 15, 16.
@@ -243,14 +241,14 @@ public:
 
 private:
     constexpr bool rtu() const noexcept {
-        if constexpr (Link == client_link::any)
+        if constexpr (Link == link_mode::any)
             return cfg_.rtu;
         else
-            return Link == client_link::rtu;
+            return Link == link_mode::rtu;
     }
 
     enum class state : std::uint8_t { idle, pending_send, awaiting, no_reply, done };
-    using decoder = basic_rtu_decoder<Fs, false>; // responses of Fs only
+    using decoder = basic_rtu_decoder<Fs, rtu_frames::responses>; // responses of Fs only
 
     session_action send(time_point now) noexcept {
         if (++attempts_ > 1) ++stats_.resends;
@@ -280,22 +278,22 @@ private:
         const time_point base = tx_end_ + cfg_.response_timeout;
         if (!rtu() || (!decode_error_ && !rtu_.in_frame())) return base;
         // Bytes are arriving: they may go on until the wire time of a whole ADU past base.
-        const time_point late = base + cfg_.format.chars_time(max_rtu_adu);
+        const time_point late = base + adu_time_;
         if (decode_error_) {
             // Garbage or a bad CRC: the attempt ends when the line has been silent for t3.5
             // (SL §2.5.1.1), that is when a byte begun by then would have arrived.
-            const time_point silent = last_rx_ + t35(cfg_.format) + cfg_.format.char_time();
+            const time_point silent = last_rx_ + silence_;
             return silent < late ? silent : late;
         }
         if (cfg_.inter_byte_timeout == duration::zero()) return late;
-        const time_point gap = last_rx_ + cfg_.format.char_time() + cfg_.inter_byte_timeout;
+        const time_point gap = last_rx_ + char_time_ + cfg_.inter_byte_timeout;
         return gap < late ? gap : late;
     }
 
     void expire(time_point deadline) noexcept {
         const duration ibt = cfg_.inter_byte_timeout;
         const bool gap = rtu() && !decode_error_ && rtu_.in_frame() && ibt > duration::zero() &&
-                         deadline == last_rx_ + cfg_.format.char_time() + ibt;
+                         deadline == last_rx_ + char_time_ + ibt;
         if (rtu() && (decode_error_ || rtu_.in_frame())) {
             // The silence ends what was received: a frame in it still counts.
             typename decoder::step s;
@@ -394,6 +392,9 @@ private:
     }
 
     client_config cfg_;
+    duration char_time_; // one character on the wire
+    duration silence_;   // t3.5 and the character that would end it
+    duration adu_time_;  // the longest ADU on the wire
     client_stats stats_{};
     state state_ = state::idle;
     request sent_{};
@@ -422,6 +423,6 @@ private:
 using client = basic_client<>;
 
 static_assert(master_session<client>);
-static_assert(master_session<basic_client<client_link::rtu>>);
+static_assert(master_session<basic_client<link_mode::rtu>>);
 
 } // namespace ferrule::modbus

@@ -28,6 +28,10 @@ enum class function : std::uint8_t {
     encapsulated_interface = 43,
 };
 
+// Which link a session speaks: chosen by its config at run time (any), or fixed at compile
+// time (basic_client, server), so firmware for one link does not carry the other's code.
+enum class link_mode : std::uint8_t { any, rtu, tcp };
+
 // An exception response carries the function code with its top bit set (AP §7).
 inline constexpr std::uint8_t exception_flag = 0x80;
 // MEI type of Read Device Identification (AP §6.21).

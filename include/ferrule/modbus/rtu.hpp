@@ -44,11 +44,14 @@ inline result<std::size_t> encode_rtu(std::uint8_t address, std::span<const std:
 // frame once (errc::malformed). Addresses are not filtered.
 //
 // rtu_decoder frames requests or responses of every function code, as chosen when it is
-// made. A client's decoder is basic_rtu_decoder<Fs, false>: it frames only responses, and
-// only those of the functions in Fs (see function_set), so firmware carries no other.
-template <function_set Fs = all_functions, bool Requests = true>
-class basic_rtu_decoder : public frame_scanner<basic_rtu_decoder<Fs, Requests>, max_rtu_adu> {
-    using base = frame_scanner<basic_rtu_decoder<Fs, Requests>, max_rtu_adu>;
+// made (tools that read a whole bus). A client's decoder is basic_rtu_decoder<Fs,
+// rtu_frames::responses>: it frames only responses, and only those of the functions in Fs
+// (see function_set); a server's frames only requests. Firmware then carries no other.
+enum class rtu_frames : std::uint8_t { responses, requests, either };
+
+template <function_set Fs = all_functions, rtu_frames Frames = rtu_frames::either>
+class basic_rtu_decoder : public frame_scanner<basic_rtu_decoder<Fs, Frames>, max_rtu_adu> {
+    using base = frame_scanner<basic_rtu_decoder<Fs, Frames>, max_rtu_adu>;
     friend base;
     using base::buf_;
     using base::drop_failed;
@@ -65,8 +68,9 @@ public:
     using typename base::status;
     using typename base::step;
 
-    basic_rtu_decoder() noexcept = default; // responses
-    explicit basic_rtu_decoder(accept a) noexcept requires Requests : accept_(a) {}
+    basic_rtu_decoder() noexcept = default; // rtu_frames::either: responses
+    explicit basic_rtu_decoder(accept a) noexcept requires(Frames == rtu_frames::either)
+        : accept_(a) {}
 
     // The line has been silent for t3.5 (SL §2.5.1.1): no byte will complete what is
     // buffered. Call it like feed(), until need_more: it drops bytes from the front (one
@@ -100,10 +104,10 @@ public:
 
 private:
     constexpr bool requests() const noexcept {
-        if constexpr (Requests)
+        if constexpr (Frames == rtu_frames::either)
             return accept_ == accept::requests;
         else
-            return false;
+            return Frames == rtu_frames::requests;
     }
 
     // Looks at the buffered bytes until a frame, a reported error, or the need for more.

@@ -2,9 +2,10 @@
 // data model (data_model.hpp) that it owns.
 //
 // RTU (Modbus over Serial Line V1.02):
-//   * requests are framed by the length their function code predicts (rtu_decoder, requests);
-//     when the line has been silent for t3.5 the bytes buffered end the frame (§2.5.1.1), so a
-//     request of an unknown function code is answered with exception 01 too
+//   * requests are framed by the length their function code predicts (a basic_rtu_decoder
+//     of rtu_frames::requests); when the line has been silent for t3.5 the bytes buffered end
+//     the frame (§2.5.1.1), so a request of an unknown function code is answered with
+//     exception 01 too
 //   * the server answers the unit ids of its set (one port may carry several, as a gateway or
 //     a multi-drop simulator does); requests for other units are ignored (§2.2, §2.3)
 //   * a broadcast (unit 0) is executed and never answered (§2.2), whatever its function
@@ -119,14 +120,19 @@ struct server_stats {
     std::uint32_t overflowed = 0; // TCP: bytes lost behind a pending request
 };
 
-template <data_model M>
+// Link: the transport chosen by server_config::transport at run time (any), or fixed at
+// compile time, so RTU firmware does not carry the TCP framing and its held requests.
+template <data_model M, link_mode Link = link_mode::any>
 class server {
 public:
     // TCP: bytes behind a pending request that are kept for later (one full request).
     static constexpr std::size_t held_capacity = max_tcp_adu;
 
     explicit server(const server_config& cfg = {}, M model = M{}) noexcept
-        : cfg_(cfg), model_(std::move(model)) {}
+        : cfg_(cfg), model_(std::move(model)) {
+        if constexpr (Link != link_mode::any)
+            cfg_.transport = Link == link_mode::rtu ? transport::rtu : transport::tcp;
+    }
 
     // A chunk of bytes from the line or connection whose last byte ended at `end`.
     void on_receive(std::span<const std::uint8_t> bytes, time_point end) noexcept {
@@ -152,7 +158,7 @@ public:
     // idle: nothing to do until bytes come; wait: call again at the deadline (a reply is due,
     // or the RTU frame in progress ends by silence); send: put these bytes on the line now.
     session_action next(time_point now) noexcept {
-        if (state_ == state::listening && held_size_ > 0) resume();
+        if (!rtu() && state_ == state::listening && held_size_ > 0) resume();
         if (state_ == state::listening && rtu() && rtu_.in_frame()) {
             if (now < rx_end_ + t35()) return session_action::wait_until(rx_end_ + t35());
             finish_rtu();
@@ -179,7 +185,7 @@ public:
     // When next() wants to be called: the reply, or the end of an RTU frame by silence.
     time_point wake_at() const noexcept {
         if (state_ == state::reply_queued) return reply_at_;
-        if (held_size_ > 0) return held_end_;
+        if (!rtu() && held_size_ > 0) return held_end_;
         if (rtu() && rtu_.in_frame()) return rx_end_ + t35();
         return never;
     }
@@ -265,6 +271,7 @@ public:
 
 private:
     enum class state : std::uint8_t { listening, reply_queued };
+    using request_decoder = basic_rtu_decoder<all_functions, rtu_frames::requests>;
 
     // Conformity level of FC 43/14 (AP §6.21): basic identification, stream and individual
     // access.
@@ -272,7 +279,12 @@ private:
     static constexpr std::uint8_t basic_objects = 3; // 0 vendor, 1 product code, 2 revision
     static constexpr std::size_t device_id_header = 7;
 
-    bool rtu() const noexcept { return cfg_.transport == transport::rtu; }
+    constexpr bool rtu() const noexcept {
+        if constexpr (Link == link_mode::any)
+            return cfg_.transport == transport::rtu;
+        else
+            return Link == link_mode::rtu;
+    }
     static bool is_restart(std::span<const std::uint8_t> pdu) noexcept {
         return pdu.size() == 5 && pdu[0] == static_cast<std::uint8_t>(function::diagnostics) &&
                load_be16(&pdu[1]) == static_cast<std::uint16_t>(diag_sub::restart_comm);
@@ -285,7 +297,7 @@ private:
             const auto s = rtu_.feed(in);
             in = in.subspan(s.consumed);
             rtu_step(s, end);
-            if (s.what == rtu_decoder::status::need_more) return;
+            if (s.what == request_decoder::status::need_more) return;
         }
     }
 
@@ -294,15 +306,15 @@ private:
         for (;;) {
             const auto s = rtu_.finish();
             rtu_step(s, rx_end_);
-            if (s.what == rtu_decoder::status::need_more) break;
+            if (s.what == request_decoder::status::need_more) break;
         }
         garbled_ = false;
     }
 
-    void rtu_step(const rtu_decoder::step& s, time_point end) noexcept {
+    void rtu_step(const request_decoder::step& s, time_point end) noexcept {
         // The decoder resynchronises byte by byte, so one damaged frame may give several
         // errors: it is counted once, by its first.
-        if (s.what == rtu_decoder::status::error) {
+        if (s.what == request_decoder::status::error) {
             if (!garbled_ && s.ec == errc::bad_checksum) {
                 ++stats_.bad_crc;
                 ++counters_.bus_comm_error;
@@ -312,7 +324,7 @@ private:
             garbled_ = true;
             return;
         }
-        if (s.what != rtu_decoder::status::frame) return;
+        if (s.what != request_decoder::status::frame) return;
         garbled_ = false;
         // Any frame on the line before the reply went out: the client has moved on.
         if (state_ == state::reply_queued) {
@@ -503,7 +515,7 @@ private:
     diagnostic_counters counters_{};
     server_stats stats_{};
     state state_ = state::listening;
-    rtu_decoder rtu_{rtu_decoder::accept::requests};
+    request_decoder rtu_{};
     tcp_decoder tcp_{};
     time_point rx_end_{};
     bool garbled_ = false; // errors since the last frame or silence
