@@ -32,34 +32,31 @@ nm=${NM:-arm-none-eabi-nm}
 objdump=${OBJDUMP:-arm-none-eabi-objdump}
 [[ -f $elf ]] || { echo "$0: no such file: $elf" >&2; exit 2; }
 
-symbols=$("$nm" --size-sort -C -S "$elf")
 total=0
 declare -A seen # aliases (e.g. C1/C2 constructors) share one address: count it once
-while read -r addr size type name; do
-    [[ $type == [tTwW] ]] || continue
-    [[ $name =~ $regex ]] || continue
-    [[ -n $exclude && $name =~ $exclude ]] && continue
-    [[ -z ${seen[$addr]:-} ]] || continue
-    seen[$addr]=1
-    total=$((total + 16#$size))
+# count <addr> <hex size> <name> [<note>]: adds a symbol that matches, once per address.
+count() {
+    [[ $3 =~ $regex ]] || return 0
+    [[ -n $exclude && $3 =~ $exclude ]] && return 0
+    [[ -z ${seen[$1]:-} ]] || return 0
+    seen[$1]=1
+    total=$((total + 16#$2))
     if ((verbose)); then
-        printf '%8d %s\n' "$((16#$size))" "$name" >&2
+        printf '%8d %s%s\n' "$((16#$2))" "$3" "${4:-}" >&2
     fi
+}
+
+symbols=$("$nm" --size-sort -C -S "$elf")
+while read -r addr size type name; do
+    [[ $type == [tTwW] ]] && count "$addr" "$size" "$name"
 done <<<"$symbols"
 if ((rodata)); then
     # objdump -t: "<addr> <7 flag columns> <section>\t<size> <name>"
+    objects=$("$objdump" -t -C "$elf")
     re_obj=$'^([0-9a-f]+) .{6}O (\\.rodata[^\t]*)\t([0-9a-f]+) (.*)$'
     while IFS= read -r line; do
-        [[ $line =~ $re_obj ]] || continue
-        addr=${BASH_REMATCH[1]} size=${BASH_REMATCH[3]} name=${BASH_REMATCH[4]}
-        [[ $name =~ $regex ]] || continue
-        [[ -n $exclude && $name =~ $exclude ]] && continue
-        [[ -z ${seen[$addr]:-} ]] || continue
-        seen[$addr]=1
-        total=$((total + 16#$size))
-        if ((verbose)); then
-            printf '%8d %s (rodata)\n' "$((16#$size))" "$name" >&2
-        fi
-    done < <("$objdump" -t -C "$elf")
+        [[ $line =~ $re_obj ]] &&
+            count "${BASH_REMATCH[1]}" "${BASH_REMATCH[3]}" "${BASH_REMATCH[4]}" ' (rodata)'
+    done <<<"$objects"
 fi
 echo "$total"
