@@ -125,6 +125,47 @@ TEST_CASE("modbus tcp server answers every request of a client that sends many a
     }
 }
 
+// Requests that arrive one at a time while the reply before them is still held back
+// (processing_time): each arrives when the connection is not asking for bytes, and must still
+// be read once it asks (the server watches its sockets edge-triggered).
+TEST_CASE("modbus tcp server answers requests that arrive while a reply is held back",
+          "[asio][modbus]") {
+    host::modbus_tcp_server_options o;
+    o.processing_time = 30ms;
+    running_server s(o);
+    asio::io_context ctx;
+    asio::ip::tcp::socket socket(ctx);
+    socket.connect({asio::ip::make_address("127.0.0.1"), s.server.port()});
+    socket.set_option(asio::ip::tcp::no_delay(true));
+    constexpr int requests = 4;
+    for (int t = 0; t < requests; ++t) {
+        const std::array<std::uint8_t, 12> r{0, static_cast<std::uint8_t>(t), 0, 0, 0, 6, 1, 3,
+                                             0, static_cast<std::uint8_t>(t), 0, 1};
+        asio::write(socket, asio::buffer(r));
+        std::this_thread::sleep_for(10ms);
+    }
+    // Every reply within a second, or the test fails instead of waiting for ever.
+    socket.non_blocking(true);
+    std::vector<std::uint8_t> in(requests * 11);
+    std::size_t got = 0;
+    const auto until = std::chrono::steady_clock::now() + 1s;
+    while (got < in.size() && std::chrono::steady_clock::now() < until) {
+        std::error_code ec;
+        got += socket.read_some(asio::buffer(in.data() + got, in.size() - got), ec);
+        if (ec == asio::error::would_block)
+            std::this_thread::sleep_for(1ms);
+        else
+            REQUIRE_FALSE(ec);
+    }
+    REQUIRE(got == in.size());
+    for (int t = 0; t < requests; ++t) {
+        INFO("reply " << t);
+        CHECK(in[t * 11 + 1] == t);
+        CHECK((in[t * 11 + 9] << 8 | in[t * 11 + 10]) == 100 + t);
+    }
+    CHECK(s.server.stats().replies == requests);
+}
+
 TEST_CASE("modbus tcp server closes connections beyond its limit", "[asio][modbus]") {
     host::modbus_tcp_server_options o;
     o.max_connections = 2;
