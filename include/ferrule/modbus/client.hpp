@@ -129,7 +129,7 @@ public:
         attempts_ = 0;
         error_ = {};
         response_ = {};
-        rx_size_ = 0;
+        rx_ = {};
         ++stats_.transactions;
         state_ = state::pending_send;
         return {};
@@ -220,7 +220,7 @@ public:
     const modbus::response& response() const noexcept { return response_; }
     // The PDU of the last response that answered the request (a normal or an exception
     // response), as received; empty when none did. Valid until the next start().
-    std::span<const std::uint8_t> response_pdu() const noexcept { return {rx_.data(), rx_size_}; }
+    std::span<const std::uint8_t> response_pdu() const noexcept { return rx_; }
     // The request PDU and the ADU as last sent.
     std::span<const std::uint8_t> pdu() const noexcept { return {pdu_.data(), pdu_size_}; }
     std::span<const std::uint8_t> request_bytes() const noexcept { return {tx_.data(), tx_size_}; }
@@ -346,17 +346,16 @@ private:
             fail(errc::unexpected_address, true);
             return;
         }
-        // The decoder's buffer is reused by the next feed(): keep the PDU.
-        for (std::size_t i = 0; i < pdu.size(); ++i) rx_[i] = pdu[i];
-        const auto parsed = parse_response<Fs>(sent_, {rx_.data(), pdu.size()});
-        if (!parsed) {
-            const bool exception = parsed.error().category() == device_category();
-            rx_size_ = exception ? pdu.size() : 0;
-            fail(parsed.error(), !exception);
+        // The PDU stays in the decoder's buffer: nothing more is fed to it until the next
+        // attempt, and none follows a response that answers.
+        if (const std::error_code ec = parse_response<Fs>(sent_, pdu, response_)) {
+            const bool exception = ec.category() == device_category();
+            rx_ = exception ? pdu : std::span<const std::uint8_t>{};
+            response_ = {};
+            fail(ec, !exception);
             return;
         }
-        rx_size_ = pdu.size();
-        response_ = *parsed;
+        rx_ = pdu;
         ++stats_.succeeded;
         finish({});
     }
@@ -403,8 +402,7 @@ private:
     std::size_t pdu_size_ = 0;
     std::array<std::uint8_t, max_tcp_adu> tx_{};
     std::size_t tx_size_ = 0;
-    std::array<std::uint8_t, max_pdu> rx_{};
-    std::size_t rx_size_ = 0;
+    std::span<const std::uint8_t> rx_{}; // the response PDU, in the decoder's buffer
     decoder rtu_{};
     tcp_decoder tcp_{};
     time_point send_after_ = time_point::min();

@@ -134,7 +134,7 @@ constexpr bool one_of(function f) noexcept {
 template <function_set Fs = all_functions>
 result<std::size_t> encode_request(const request& r, std::span<std::uint8_t> out) noexcept {
     using detail::one_of;
-    std::array<std::uint8_t, max_pdu> b{};
+    std::array<std::uint8_t, max_pdu> b; // each branch writes the n bytes it returns
     std::size_t n = 5;
     const function f = r.function;
     b[0] = static_cast<std::uint8_t>(f);
@@ -405,8 +405,11 @@ constexpr bool next_device_id_object(std::span<const std::uint8_t>& objects,
 // modbus::device_category() error; another function code errc::unexpected_type; a wrong
 // length, byte count or echo errc::malformed; a request of a function not in `Fs`
 // errc::invalid_argument.
+// This form fills `r` and returns the error (empty on success; `r` is then not to be used),
+// so that a session parses into its own response without a copy.
 template <function_set Fs = all_functions>
-result<response> parse_response(const request& sent, std::span<const std::uint8_t> pdu) noexcept {
+std::error_code parse_response(const request& sent, std::span<const std::uint8_t> pdu,
+                               response& r) noexcept {
     using detail::one_of;
     if (pdu.empty()) return errc::malformed;
     const function f = sent.function;
@@ -416,7 +419,7 @@ result<response> parse_response(const request& sent, std::span<const std::uint8_
         return std::error_code(pdu[1], device_category());
     }
     if (pdu[0] != fc) return errc::unexpected_type;
-    response r;
+    r = response{};
     r.function = f;
     r.address = sent.address;
     r.quantity = sent.quantity;
@@ -427,7 +430,7 @@ result<response> parse_response(const request& sent, std::span<const std::uint8_
         const std::size_t bytes = bits ? packed_size(sent.quantity) : 2u * sent.quantity;
         if (pdu.size() < 2 || pdu[1] != bytes || pdu.size() != 2 + bytes) return errc::malformed;
         r.data = pdu.subspan(2);
-        return r;
+        return {};
     }
     if (one_of<Fs, function::write_single_coil, function::write_single_register,
                function::write_multiple_coils, function::write_multiple_registers>(f)) {
@@ -438,7 +441,7 @@ result<response> parse_response(const request& sent, std::span<const std::uint8_
         if (second != (single ? sent.value : sent.quantity)) return errc::malformed;
         r.value = single ? second : std::uint16_t{0};
         r.quantity = single ? std::uint16_t{0} : second;
-        return r;
+        return {};
     }
     if (one_of<Fs, function::diagnostics>(f)) {
         // Echo of the sub-function; Return Query Data echoes the data too (AP §6.8.1).
@@ -450,7 +453,7 @@ result<response> parse_response(const request& sent, std::span<const std::uint8_
         if (sent.value == static_cast<std::uint16_t>(diag_sub::return_query_data) &&
             (sent.data.size() != 2 || sent.data[0] != pdu[3] || sent.data[1] != pdu[4]))
             return errc::malformed;
-        return r;
+        return {};
     }
     if (one_of<Fs, function::encapsulated_interface>(f)) {
         // 2B 0E code conformity more-follows(00/FF) next-object count objects… (AP §6.21)
@@ -468,9 +471,16 @@ result<response> parse_response(const request& sent, std::span<const std::uint8_
         for (unsigned i = 0; i < pdu[6]; ++i)
             if (!next_device_id_object(rest, o)) return errc::malformed;
         if (!rest.empty()) return errc::malformed;
-        return r;
+        return {};
     }
     return errc::invalid_argument;
+}
+
+template <function_set Fs = all_functions>
+result<response> parse_response(const request& sent, std::span<const std::uint8_t> pdu) noexcept {
+    response r;
+    if (const std::error_code ec = parse_response<Fs>(sent, pdu, r)) return ec;
+    return r;
 }
 
 } // namespace ferrule::modbus
