@@ -110,17 +110,11 @@ public:
         if (!n) return n.error();
         pdu_size_ = *n;
         sent_ = r;
-        // The request's data lives on in its PDU; the caller's may not.
-        using detail::one_of;
-        if (one_of<Fs, function::diagnostics>(r.function))
-            sent_.data = {pdu_.data() + 3, 2};
-        else if (one_of<Fs, function::write_multiple_coils, function::write_multiple_registers>(
-                     r.function))
-            sent_.data = {pdu_.data() + 6, r.data.size()};
-        else if (one_of<Fs, function::read_write_multiple_registers>(r.function))
-            sent_.data = {pdu_.data() + 10, r.data.size()};
-        else
-            sent_.data = {};
+        // parse_response() reads the request's data only for FC 8's echo (AP §6.8.1), and the
+        // caller's may not live on: it is taken from the PDU.
+        sent_.data = detail::one_of<Fs, function::diagnostics>(r.function)
+                         ? std::span<const std::uint8_t>(pdu_.data() + 3, 2)
+                         : std::span<const std::uint8_t>{};
         unit_ = unit;
         no_reply_ =
             broadcast || (r.function == function::diagnostics &&
@@ -361,16 +355,17 @@ private:
     }
 
     void fail(std::error_code ec, bool may_retry) noexcept {
-        if (ec == errc::timeout)
-            ++stats_.timeouts;
-        else if (ec == errc::bad_checksum)
-            ++stats_.bad_checksums;
-        else if (ec == errc::unexpected_address)
-            ++stats_.unexpected_units;
-        else if (ec.category() == device_category())
+        if (ec.category() == device_category())
             ++stats_.exceptions;
-        else
+        else if (ec.category() != errc_category())
             ++stats_.malformed;
+        else
+            switch (static_cast<errc>(ec.value())) {
+            case errc::timeout: ++stats_.timeouts; break;
+            case errc::bad_checksum: ++stats_.bad_checksums; break;
+            case errc::unexpected_address: ++stats_.unexpected_units; break;
+            default: ++stats_.malformed; break;
+            }
         if (may_retry && attempts_ <= cfg_.retries) {
             error_ = ec; // the cause so far, replaced by the final outcome
             state_ = state::pending_send;
