@@ -45,6 +45,7 @@
 
 #include "ferrule/asio/idle_watch.hpp"
 #include "ferrule/asio/reply_writer.hpp"
+#include "ferrule/asio/request_reader.hpp"
 #include "ferrule/asio/serial_stream.hpp"
 #include "ferrule/memobus/header.hpp"
 #include "ferrule/memobus/server.hpp"
@@ -236,7 +237,7 @@ private:
             idle_.touch();
             idle_.start(owner_.options_.idle_timeout, this->shared_from_this(),
                         [this] { end(true); });
-            read();
+            reader_.read_more(this->shared_from_this());
         }
 
         void shut() {
@@ -245,30 +246,20 @@ private:
             idle_.cancel();
         }
 
-    private:
-        void read() {
-            reading_ = true;
-            socket_.async_read_some(::asio::buffer(rx_), [self = this->shared_from_this()](
-                                                             std::error_code ec, std::size_t n) {
-                self->on_read(ec, n);
-            });
-        }
-
-        void on_read(std::error_code ec, std::size_t n) {
-            reading_ = false;
+        // From reader_: new bytes, or the end of the connection.
+        void on_read(std::error_code ec) {
             if (ec) return end(false);
             idle_.touch();
-            rx_pos_ = 0;
-            rx_size_ = n;
             feed();
         }
 
+    private:
         // Frames what was read and answers each message, until all is used or the replies
         // back up; reads on when all is used.
         void feed() {
-            while (rx_pos_ < rx_size_ && !backlogged()) {
-                const auto s = decoder_.feed({rx_.data() + rx_pos_, rx_size_ - rx_pos_});
-                rx_pos_ += s.consumed;
+            while (!reader_.unused().empty() && !backlogged()) {
+                const auto s = decoder_.feed(reader_.unused());
+                reader_.use(s.consumed);
                 if (s.what == memobus::message_decoder::status::error)
                     ++owner_.slots_[channel_].malformed;
                 if (s.what != memobus::message_decoder::status::frame) continue;
@@ -276,7 +267,7 @@ private:
                 if (n > 0) send({tx_.data(), n});
                 if (!socket_.is_open()) return;
             }
-            if (rx_pos_ == rx_size_ && !reading_ && !backlogged() && socket_.is_open()) read();
+            if (!backlogged() && socket_.is_open()) reader_.read_more(this->shared_from_this());
         }
 
         void send(std::span<const std::uint8_t> bytes) {
@@ -305,10 +296,7 @@ private:
         std::size_t channel_;
         channel_session session_;
         memobus::message_decoder decoder_;
-        std::array<std::uint8_t, 512> rx_{};
-        std::size_t rx_pos_ = 0;
-        std::size_t rx_size_ = 0;
-        bool reading_ = false;
+        request_reader<::asio::ip::tcp::socket> reader_{socket_};
         std::array<std::uint8_t, memobus::max_message> tx_{};
         reply_writer<::asio::ip::tcp::socket> writer_{socket_};
     };

@@ -32,6 +32,7 @@
 
 #include "ferrule/asio/idle_watch.hpp"
 #include "ferrule/asio/reply_writer.hpp"
+#include "ferrule/asio/request_reader.hpp"
 #include "ferrule/asio/serial_stream.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/modbus/data_model.hpp"
@@ -109,7 +110,7 @@ private:
             idle_.touch();
             idle_.start(owner_.options_.idle_timeout, this->shared_from_this(),
                         [this] { end(true); });
-            read();
+            reader_.read_more(this->shared_from_this());
         }
 
         void shut() {
@@ -117,6 +118,13 @@ private:
             socket_.close(ec);
             reply_timer_.cancel();
             idle_.cancel();
+        }
+
+        // From reader_: new bytes, or the end of the connection.
+        void on_read(std::error_code ec) {
+            if (ec) return end(false);
+            idle_.touch();
+            feed();
         }
 
     private:
@@ -127,36 +135,20 @@ private:
             return c;
         }
 
-        void read() {
-            reading_ = true;
-            socket_.async_read_some(::asio::buffer(rx_), [self = this->shared_from_this()](
-                                                             std::error_code ec, std::size_t n) {
-                self->on_read(ec, n);
-            });
-        }
-
-        void on_read(std::error_code ec, std::size_t n) {
-            reading_ = false;
-            if (ec) return end(false);
-            idle_.touch();
-            rx_pos_ = 0;
-            rx_size_ = n;
-            feed();
-        }
-
         // Gives the session what it can take: a chunk no larger than it holds behind a
         // request, and only while no reply is waiting, so that a client sending many requests
         // at once (guide §3.1.2 lets it) loses none. Reads on when all is fed, unless replies
         // back up.
         void feed() {
-            while (rx_pos_ < rx_size_ && session_.wake_at() == never) {
-                const std::size_t n = std::min(rx_size_ - rx_pos_, session_type::held_capacity);
-                session_.on_receive({rx_.data() + rx_pos_, n}, idle_.last());
-                rx_pos_ += n;
+            while (!reader_.unused().empty() && session_.wake_at() == never) {
+                const auto bytes = reader_.unused().first(
+                    std::min(reader_.unused().size(), session_type::held_capacity));
+                session_.on_receive(bytes, idle_.last());
+                reader_.use(bytes.size());
                 pump();
                 if (!socket_.is_open()) return;
             }
-            if (rx_pos_ == rx_size_ && !reading_ && !backlogged() && socket_.is_open()) read();
+            if (!backlogged() && socket_.is_open()) reader_.read_more(this->shared_from_this());
         }
 
         // Hands out every reply that is due; sleeps until the next one.
@@ -207,10 +199,7 @@ private:
         ::asio::steady_timer reply_timer_;
         idle_watch idle_;
         session_type session_;
-        std::array<std::uint8_t, 512> rx_{};
-        std::size_t rx_pos_ = 0;
-        std::size_t rx_size_ = 0;
-        bool reading_ = false;
+        request_reader<::asio::ip::tcp::socket> reader_{socket_};
         reply_writer<::asio::ip::tcp::socket> writer_{socket_};
     };
 
