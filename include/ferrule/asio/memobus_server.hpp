@@ -43,10 +43,8 @@
 #include <utility>
 #include <vector>
 
-#include "ferrule/asio/idle_watch.hpp"
-#include "ferrule/asio/reply_writer.hpp"
-#include "ferrule/asio/request_reader.hpp"
 #include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/asio/server_connection.hpp"
 #include "ferrule/memobus/header.hpp"
 #include "ferrule/memobus/server.hpp"
 
@@ -222,44 +220,31 @@ private:
     }
 
     // --- TCP -------------------------------------------------------------------------------
-    class connection : public std::enable_shared_from_this<connection> {
+    class connection : public server_connection<connection> {
+        using base = server_connection<connection>;
+        friend base;
+        using base::backlogged;
+        using base::read_on;
+        using base::send;
+        using base::socket_;
+        using base::unused;
+        using base::use;
+
     public:
         connection(memobus_server& owner, ::asio::ip::tcp::socket socket, std::size_t channel)
-            : owner_(owner), socket_(std::move(socket)), idle_(socket_.get_executor()),
+            : base(std::move(socket)), owner_(owner),
               channel_(channel), session_{memobus::server(owner.config_of(channel))} {}
 
         std::size_t channel() const noexcept { return channel_; }
-
-        void start() {
-            std::error_code ec;
-            socket_.non_blocking(true, ec);
-            socket_.set_option(::asio::ip::tcp::no_delay(true), ec);
-            idle_.touch();
-            idle_.start(owner_.options_.idle_timeout, this->shared_from_this(),
-                        [this] { end(true); });
-            reader_.read_more(this->shared_from_this());
-        }
-
-        void shut() {
-            std::error_code ec;
-            socket_.close(ec);
-            idle_.cancel();
-        }
-
-        // From reader_: new bytes, or the end of the connection.
-        void on_read(std::error_code ec) {
-            if (ec) return end(false);
-            idle_.touch();
-            feed();
-        }
+        using base::shut;
 
     private:
         // Frames what was read and answers each message, until all is used or the replies
         // back up; reads on when all is used.
         void feed() {
-            while (!reader_.unused().empty() && !backlogged()) {
-                const auto s = decoder_.feed(reader_.unused());
-                reader_.use(s.consumed);
+            while (!unused().empty() && !backlogged()) {
+                const auto s = decoder_.feed(unused());
+                use(s.consumed);
                 if (s.what == memobus::message_decoder::status::error)
                     ++owner_.slots_[channel_].malformed;
                 if (s.what != memobus::message_decoder::status::frame) continue;
@@ -267,19 +252,8 @@ private:
                 if (n > 0) send({tx_.data(), n});
                 if (!socket_.is_open()) return;
             }
-            if (!backlogged() && socket_.is_open()) reader_.read_more(this->shared_from_this());
+            read_on();
         }
-
-        void send(std::span<const std::uint8_t> bytes) {
-            const auto ec =
-                writer_.send(bytes, this->shared_from_this(), [this](std::error_code e) {
-                    if (e) return end(false);
-                    feed();
-                });
-            if (ec) end(false);
-        }
-
-        bool backlogged() const noexcept { return writer_.backlogged(); }
 
         void end(bool idle) {
             if (!socket_.is_open()) return;
@@ -291,14 +265,10 @@ private:
         }
 
         memobus_server& owner_;
-        ::asio::ip::tcp::socket socket_;
-        idle_watch idle_;
         std::size_t channel_;
         channel_session session_;
         memobus::message_decoder decoder_;
-        request_reader<::asio::ip::tcp::socket> reader_{socket_};
         std::array<std::uint8_t, memobus::max_message> tx_{};
-        reply_writer<::asio::ip::tcp::socket> writer_{socket_};
     };
 
     void accept() {
@@ -309,7 +279,7 @@ private:
                     ++stats_.accepted;
                     auto c = std::make_shared<connection>(*this, std::move(socket), *channel);
                     connections_.push_back(c);
-                    c->start();
+                    c->start(options_.idle_timeout);
                 } else {
                     ++stats_.refused;
                     std::error_code ignored;

@@ -30,10 +30,8 @@
 #include <system_error>
 #include <vector>
 
-#include "ferrule/asio/idle_watch.hpp"
-#include "ferrule/asio/reply_writer.hpp"
-#include "ferrule/asio/request_reader.hpp"
 #include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/asio/server_connection.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/modbus/data_model.hpp"
 #include "ferrule/modbus/model_ref.hpp"
@@ -96,35 +94,24 @@ public:
 private:
     using session_type = modbus::server<modbus::model_ref<M>>;
 
-    class connection : public std::enable_shared_from_this<connection> {
+    class connection : public server_connection<connection> {
+        using base = server_connection<connection>;
+        friend base;
+        using base::idle_;
+        using base::read_on;
+        using base::send;
+        using base::socket_;
+        using base::unused;
+        using base::use;
+
     public:
         connection(modbus_tcp_server& owner, ::asio::ip::tcp::socket socket)
-            : owner_(owner), socket_(std::move(socket)), reply_timer_(socket_.get_executor()),
-              idle_(socket_.get_executor()),
+            : base(std::move(socket)), owner_(owner), reply_timer_(socket_.get_executor()),
               session_(config(owner.options_), modbus::model_ref<M>(owner.model_)) {}
 
-        void start() {
-            std::error_code ec;
-            socket_.non_blocking(true, ec);
-            socket_.set_option(::asio::ip::tcp::no_delay(true), ec);
-            idle_.touch();
-            idle_.start(owner_.options_.idle_timeout, this->shared_from_this(),
-                        [this] { end(true); });
-            reader_.read_more(this->shared_from_this());
-        }
-
         void shut() {
-            std::error_code ec;
-            socket_.close(ec);
+            base::shut();
             reply_timer_.cancel();
-            idle_.cancel();
-        }
-
-        // From reader_: new bytes, or the end of the connection.
-        void on_read(std::error_code ec) {
-            if (ec) return end(false);
-            idle_.touch();
-            feed();
         }
 
     private:
@@ -140,15 +127,15 @@ private:
         // at once (guide §3.1.2 lets it) loses none. Reads on when all is fed, unless replies
         // back up.
         void feed() {
-            while (!reader_.unused().empty() && session_.wake_at() == never) {
-                const auto bytes = reader_.unused().first(
-                    std::min(reader_.unused().size(), session_type::held_capacity));
+            while (!unused().empty() && session_.wake_at() == never) {
+                const auto bytes =
+                    unused().first(std::min(unused().size(), session_type::held_capacity));
                 session_.on_receive(bytes, idle_.last());
-                reader_.use(bytes.size());
+                use(bytes.size());
                 pump();
                 if (!socket_.is_open()) return;
             }
-            if (!backlogged() && socket_.is_open()) reader_.read_more(this->shared_from_this());
+            read_on();
         }
 
         // Hands out every reply that is due; sleeps until the next one.
@@ -175,17 +162,6 @@ private:
             }
         }
 
-        void send(std::span<const std::uint8_t> bytes) {
-            const auto ec =
-                writer_.send(bytes, this->shared_from_this(), [this](std::error_code e) {
-                    if (e) return end(false);
-                    feed();
-                });
-            if (ec) end(false);
-        }
-
-        bool backlogged() const noexcept { return writer_.backlogged(); }
-
         void end(bool idle) {
             if (!socket_.is_open()) return;
             // Counted before the close that the client sees.
@@ -195,12 +171,8 @@ private:
         }
 
         modbus_tcp_server& owner_;
-        ::asio::ip::tcp::socket socket_;
         ::asio::steady_timer reply_timer_;
-        idle_watch idle_;
         session_type session_;
-        request_reader<::asio::ip::tcp::socket> reader_{socket_};
-        reply_writer<::asio::ip::tcp::socket> writer_{socket_};
     };
 
     void accept() {
@@ -215,7 +187,7 @@ private:
                     ++stats_.accepted;
                     auto c = std::make_shared<connection>(*this, std::move(socket));
                     connections_.push_back(c);
-                    c->start();
+                    c->start(options_.idle_timeout);
                 }
             }
             accept();
