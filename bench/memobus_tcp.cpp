@@ -33,6 +33,7 @@
 #include "ferrule/core/bytes.hpp"
 #include "ferrule/memobus/message.hpp"
 #include "ferrule/memobus/register_image.hpp"
+#include "server_thread.hpp"
 #include "tcp_load.hpp"
 
 namespace {
@@ -40,7 +41,6 @@ namespace {
 namespace mem = ferrule::memobus;
 using ferrule::bench::clock_type;
 using ferrule::bench::load_result;
-using ferrule::bench::thread_cpu_seconds;
 constexpr int registers = 10;
 constexpr int most_masters = 64;
 constexpr std::size_t max_requests = 400'000;
@@ -51,34 +51,18 @@ constexpr std::uint16_t value_of(std::size_t n) {
     return static_cast<std::uint16_t>(0x5A00 ^ (n * 7));
 }
 
-class server {
-public:
-    using image = mem::register_image<registers * most_masters, 16>;
-    server() : server_(ctx_.get_executor(), image_, options()) {
-        for (std::size_t i = 0; i < image::mw_size; ++i) image_.set_mw(i, value_of(i));
-        server_.listen({::asio::ip::make_address("127.0.0.1"), 0});
-        thread_ = std::thread([this] { ctx_.run(); });
-    }
-    ~server() {
-        ::asio::post(ctx_, [this] { server_.close(); });
-        ctx_.stop();
-        thread_.join();
-    }
-    server(const server&) = delete;
-    server& operator=(const server&) = delete;
-    std::uint16_t port() const { return server_.port(); }
-    double cpu_seconds() { return thread_cpu_seconds(thread_); }
+using image = mem::register_image<registers * most_masters, 16>;
 
-private:
+struct server : ferrule::bench::server_thread<ferrule::host::memobus_server<image>, image> {
+    server()
+        : server_thread(options(), [](image& im) {
+              for (std::size_t i = 0; i < image::mw_size; ++i) im.set_mw(i, value_of(i));
+          }) {}
     static ferrule::host::memobus_server_options options() {
         ferrule::host::memobus_server_options o;
         o.max_channels = 128;
         return o;
     }
-    ::asio::io_context ctx_;
-    image image_;
-    ferrule::host::memobus_server<image> server_;
-    std::thread thread_;
 };
 
 // One master connection: a request written, its response read, the next request. The

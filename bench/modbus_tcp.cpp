@@ -37,6 +37,7 @@
 
 #include "ferrule/asio/modbus_tcp_server.hpp"
 #include "ferrule/modbus/memory_model.hpp"
+#include "server_thread.hpp"
 #include "tcp_load.hpp"
 
 namespace {
@@ -51,35 +52,20 @@ constexpr auto run_time = std::chrono::seconds(1);
 
 // --- servers --------------------------------------------------------------------------------
 
-class ferrule_server {
-public:
-    using model = mb::memory_model<0, 0, 100, 0>;
-    ferrule_server() : server_(ctx_.get_executor(), model_, options()) {
-        for (std::size_t i = 0; i < 100; ++i)
-            model_.holding_registers()[i] = static_cast<std::uint16_t>(0x1000 + i);
-        server_.listen({::asio::ip::make_address("127.0.0.1"), 0});
-        thread_ = std::thread([this] { ctx_.run(); });
-    }
-    ~ferrule_server() {
-        ::asio::post(ctx_, [this] { server_.close(); });
-        ctx_.stop();
-        thread_.join();
-    }
-    ferrule_server(const ferrule_server&) = delete;
-    ferrule_server& operator=(const ferrule_server&) = delete;
-    std::uint16_t port() const { return server_.port(); }
-    double cpu_seconds() { return thread_cpu_seconds(thread_); }
+using model = mb::memory_model<0, 0, 100, 0>;
 
-private:
+struct ferrule_server
+    : ferrule::bench::server_thread<ferrule::host::modbus_tcp_server<model>, model> {
+    ferrule_server()
+        : server_thread(options(), [](model& m) {
+              for (std::size_t i = 0; i < 100; ++i)
+                  m.holding_registers()[i] = static_cast<std::uint16_t>(0x1000 + i);
+          }) {}
     static ferrule::host::modbus_tcp_server_options options() {
         ferrule::host::modbus_tcp_server_options o;
         o.max_connections = 128;
         return o;
     }
-    ::asio::io_context ctx_;
-    model model_;
-    ferrule::host::modbus_tcp_server<model> server_;
-    std::thread thread_;
 };
 
 class libmodbus_server {
