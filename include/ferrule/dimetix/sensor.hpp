@@ -116,8 +116,7 @@ public:
             return session_action::send({tx_.data(), tx_size_}, cfg_.discard_stale_input);
         }
         case state::awaiting:
-            // Compared as durations: inline, where time_point's <=> is a call.
-            if (now.time_since_epoch() < deadline_.time_since_epoch())
+            if (before(now, deadline_))
                 return session_action::wait_until(deadline_);
             ++stats_.timeouts;
             fail(errc::timeout, true, true);

@@ -216,7 +216,7 @@ public:
             const std::size_t i = (cursor_ + k) % n;
             const std::size_t u = unit_of_[i];
             const bool offline = has(offline_, u);
-            if (offline && now < unit_since_[u] + policy_.reconnect_time) continue;
+            if (offline && before(now, unit_since_[u] + policy_.reconnect_time)) continue;
             if (!due(i, outputs, now)) continue;
             if (offline) unit_since_[u] = now; // this one is the probe
             cursor_ = i;
@@ -239,11 +239,11 @@ public:
             time_point t = never;
             if (list_[i].update == update::cyclic) {
                 t = has(started_, i) ? last_start_[i] + list_[i].interval : time_point::min();
-                if (offline) t = std::max(t, reconnect);
-            } else if (offline && reconnect > last_now_) {
+                if (offline && before(t, reconnect)) t = reconnect;
+            } else if (offline && before(last_now_, reconnect)) {
                 t = reconnect;
             }
-            at = std::min(at, t);
+            at = earliest(at, t);
         }
         return at;
     }
@@ -341,7 +341,7 @@ private:
         const std::size_t wb = detail::write_bytes(t);
         if (std::size_t{t.output_offset} + wb > outputs.size()) return false;
         switch (t.update) {
-        case update::cyclic: return !has(started_, i) || now - last_start_[i] >= t.interval;
+        case update::cyclic: return !has(started_, i) || !before(now, last_start_[i] + t.interval);
         case update::on_change:
             return !has(written_, i) ||
                    !std::equal(outputs.begin() + t.output_offset,

@@ -105,7 +105,7 @@ public:
             const time_point until = sending             ? d_.send_after
                                      : d_.rx == rx::idle ? d_.deadline
                                                          : d_.deadline + reply_allowance_;
-            if (now < until) return session_action::wait_until(until);
+            if (before(now, until)) return session_action::wait_until(until);
             if (sending) return send(now);
             expire(until);
         }

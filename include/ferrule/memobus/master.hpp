@@ -95,7 +95,7 @@ public:
         case state::done: return session_action::done();
         case state::pending_send: return send(now);
         case state::awaiting:
-            if (now < deadline_) return session_action::wait_until(deadline_);
+            if (before(now, deadline_)) return session_action::wait_until(deadline_);
             if (garbage_) {
                 fail(errc::malformed); // counted when it came
             } else {

@@ -134,17 +134,17 @@ public:
         case state::idle: return session_action::idle();
         case state::done: return session_action::done();
         case state::pending_send:
-            if (now < send_after_) return session_action::wait_until(send_after_);
+            if (before(now, send_after_)) return session_action::wait_until(send_after_);
             return send(now);
         case state::no_reply: {
             const time_point quiet = tx_end_ + cfg_.turnaround;
-            if (now < quiet) return session_action::wait_until(quiet);
+            if (before(now, quiet)) return session_action::wait_until(quiet);
             finish(errc::no_response_expected);
             return session_action::done();
         }
         case state::awaiting: {
             const time_point deadline = deadline_now();
-            if (now < deadline) return session_action::wait_until(deadline);
+            if (before(now, deadline)) return session_action::wait_until(deadline);
             expire(deadline);
             return next(now);
         }
@@ -157,12 +157,12 @@ public:
         if (rtu()) {
             // An answer before our request's computed wire end: the link is faster than the
             // serial format says (a pty, a TCP bridge), so the request's hold ends now.
-            if (state_ == state::awaiting && now < tx_end_ && echo_pos_ == tx_size_)
+            if (state_ == state::awaiting && before(now, tx_end_) && echo_pos_ == tx_size_)
                 send_after_ = now;
             hold(now, cfg_.inter_frame_gap); // the line is busy until now
-            if (state_ == state::awaiting && cfg_.inter_byte_timeout > duration::zero() &&
+            if (state_ == state::awaiting && cfg_.inter_byte_timeout.count() > 0 &&
                 rtu_.in_frame() &&
-                now - cfg_.format.chars_time(in.size()) - last_rx_ > cfg_.inter_byte_timeout) {
+                before(last_rx_ + cfg_.inter_byte_timeout, now - cfg_.format.chars_time(in.size()))) {
                 last_rx_ = now;
                 fail(errc::frame_gap, true);
                 stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
@@ -277,16 +277,16 @@ private:
             // Garbage or a bad CRC: the attempt ends when the line has been silent for t3.5
             // (SL §2.5.1.1), that is when a byte begun by then would have arrived.
             const time_point silent = last_rx_ + silence_;
-            return silent < late ? silent : late;
+            return earliest(silent, late);
         }
         if (cfg_.inter_byte_timeout == duration::zero()) return late;
         const time_point gap = last_rx_ + char_time_ + cfg_.inter_byte_timeout;
-        return gap < late ? gap : late;
+        return earliest(gap, late);
     }
 
     void expire(time_point deadline) noexcept {
         const duration ibt = cfg_.inter_byte_timeout;
-        const bool gap = rtu() && !decode_error_ && rtu_.in_frame() && ibt > duration::zero() &&
+        const bool gap = rtu() && !decode_error_ && rtu_.in_frame() && ibt.count() > 0 &&
                          deadline == last_rx_ + char_time_ + ibt;
         if (rtu() && (decode_error_ || rtu_.in_frame())) {
             // The silence ends what was received: a frame in it still counts.
@@ -382,7 +382,7 @@ private:
 
     // No request before t + quiet.
     void hold(time_point t, duration quiet) noexcept {
-        if (t + quiet > send_after_) send_after_ = t + quiet;
+        if (before(send_after_, t + quiet)) send_after_ = t + quiet;
     }
 
     client_config cfg_;

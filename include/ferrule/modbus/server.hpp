@@ -160,11 +160,11 @@ public:
     session_action next(time_point now) noexcept {
         if (!rtu() && state_ == state::listening && held_size_ > 0) resume();
         if (state_ == state::listening && rtu() && rtu_.in_frame()) {
-            if (now < rx_end_ + t35()) return session_action::wait_until(rx_end_ + t35());
+            if (before(now, rx_end_ + t35())) return session_action::wait_until(rx_end_ + t35());
             finish_rtu();
         }
         if (state_ != state::reply_queued) return session_action::idle();
-        if (now < reply_at_) return session_action::wait_until(reply_at_);
+        if (before(now, reply_at_)) return session_action::wait_until(reply_at_);
         state_ = state::listening;
         ++stats_.replies;
         if (tx_exception_ != 0) {

@@ -81,12 +81,12 @@ public:
         case state::done: return session_action::done();
         case state::pending_send: {
             const time_point send_at = last_activity_ + pause_;
-            if (now < send_at) return session_action::wait_until(send_at);
+            if (before(now, send_at)) return session_action::wait_until(send_at);
             return send(now);
         }
         case state::awaiting_reply: {
             const time_point deadline = reply_deadline();
-            if (now < deadline) return session_action::wait_until(deadline);
+            if (before(now, deadline)) return session_action::wait_until(deadline);
             fail_attempt(decoder_.in_frame() ? errc::frame_gap : errc::timeout);
             return next(now);
         }
@@ -104,7 +104,7 @@ public:
         }
         if (decoder_.in_frame() && cfg_.max_char_delay.count() > 0) {
             const duration wire = cfg_.format.chars_time(in.size());
-            if (now - last_activity_ - wire > cfg_.max_char_delay) {
+            if (before(last_activity_ + cfg_.max_char_delay, now - wire)) {
                 mark_activity(now, 2 * cfg_.start_pause);
                 fail_attempt(errc::frame_gap);
                 return;

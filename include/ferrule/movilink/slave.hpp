@@ -145,7 +145,7 @@ public:
         case state::listening: return session_action::idle();
         case state::request: return session_action::done();
         case state::reply_queued:
-            if (now < reply_at_) return session_action::wait_until(reply_at_);
+            if (before(now, reply_at_)) return session_action::wait_until(reply_at_);
             state_ = state::listening;
             ++stats_.replies;
             return session_action::send({tx_.data(), tx_size_}, false);

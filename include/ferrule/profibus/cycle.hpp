@@ -48,7 +48,7 @@ std::size_t run_cycle(S& stream, master& m, std::span<cycle_slave> slaves,
     std::size_t exchanged = 0;
     for (cycle_slave& s : slaves) {
         if (!s.exchanging) {
-            if (stream.now() < s.retry_at) continue;
+            if (before(stream.now(), s.retry_at)) continue;
             ++s.bring_ups;
             if (const auto ec = bring_up(stream, m, s.address, s.prm, s.cfg, c.diag_polls)) {
                 ++s.failures;

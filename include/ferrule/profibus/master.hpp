@@ -150,17 +150,17 @@ public:
         case state::idle: return session_action::idle();
         case state::done: return session_action::done();
         case state::pending_send:
-            if (now < send_after_) return session_action::wait_until(send_after_);
+            if (before(now, send_after_)) return session_action::wait_until(send_after_);
             return send(now);
         case state::no_reply: {
             const time_point quiet = tx_end_ + syn_time();
-            if (now < quiet) return session_action::wait_until(quiet);
+            if (before(now, quiet)) return session_action::wait_until(quiet);
             finish(errc::no_response_expected);
             return session_action::done();
         }
         case state::awaiting: {
             const time_point deadline = deadline_now();
-            if (now < deadline) return session_action::wait_until(deadline);
+            if (before(now, deadline)) return session_action::wait_until(deadline);
             expire();
             return next(now);
         }
@@ -172,7 +172,7 @@ public:
         if (in.empty()) return;
         // A reply before our request's computed wire end: the link is faster than the serial
         // format says (a pty), so the request's hold ends now.
-        if (state_ == state::awaiting && now < tx_end_) send_after_ = now;
+        if (state_ == state::awaiting && before(now, tx_end_)) send_after_ = now;
         hold(now); // the line is busy until now
         last_rx_ = now;
         if (state_ != state::awaiting) return;
@@ -312,7 +312,7 @@ private:
         // Garbage or an FCS error: the attempt ends when the line has been idle for TSYN,
         // that is when a character begun by then would have arrived.
         const time_point idle = last_rx_ + syn_time() + cfg_.format.char_time();
-        return idle < late ? idle : late;
+        return earliest(idle, late);
     }
 
     void expire() noexcept {
@@ -434,7 +434,7 @@ private:
 
     // No request before the line has been idle for TSYN after t (§B.1).
     void hold(time_point t) noexcept {
-        if (t + syn_time() > send_after_) send_after_ = t + syn_time();
+        if (before(send_after_, t + syn_time())) send_after_ = t + syn_time();
     }
 
     master_config cfg_;

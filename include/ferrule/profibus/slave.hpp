@@ -109,7 +109,7 @@ public:
         if (!reply_due_)
             return wake_at() == never ? session_action::idle()
                                       : session_action::wait_until(wake_at());
-        if (now < reply_at_) return session_action::wait_until(reply_at_);
+        if (before(now, reply_at_)) return session_action::wait_until(reply_at_);
         reply_due_ = false;
         ++stats_.replies;
         return session_action::send({tx_.data(), tx_size_}, false);
@@ -377,7 +377,7 @@ private:
     }
 
     void check_watchdog(time_point now) noexcept {
-        if (!watchdog_armed() || now < last_request_ + watchdog_) return;
+        if (!watchdog_armed() || before(now, last_request_ + watchdog_)) return;
         ++stats_.watchdog_expiries;
         to_wait_prm();
         master_ = diag::no_master;
