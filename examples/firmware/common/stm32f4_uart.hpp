@@ -61,7 +61,7 @@ public:
     using time_point = ferrule::time_point;
 
     // With parity the parity bit arrives above the data bits in DR: the mask takes it off.
-    explicit uart_stream(const ferrule::serial_format& f) noexcept
+    constexpr explicit uart_stream(const ferrule::serial_format& f) noexcept
         : data_mask_(static_cast<std::uint8_t>((1u << f.data_bits) - 1u)) {}
 
     [[gnu::noinline]] time_point now() const noexcept {

@@ -16,8 +16,8 @@
 namespace {
 constexpr std::uint8_t sensor_id = 1; // sNid of the sensor on the line
 
-board::uart_stream uart(ferrule::dimetix::default_format);
-ferrule::dimetix::sensor dimetix_sensor;
+constinit board::uart_stream uart(ferrule::dimetix::default_format);
+constinit ferrule::dimetix::sensor dimetix_sensor;
 
 // PLC-style outputs of this example, e.g. for a display task (names as in the paper).
 volatile bool connected = false;

@@ -17,7 +17,7 @@ namespace {
 constexpr std::uint8_t drives = 6;
 constexpr auto format = ferrule::lecom::lenze_4900.format;
 
-board::uart_stream uart(format);
+constinit board::uart_stream uart(format);
 ferrule::lecom::poller<drives, 1, drives> bus;
 
 // PLC-style inputs and outputs of this example, e.g. for a display task.

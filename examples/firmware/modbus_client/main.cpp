@@ -21,13 +21,13 @@ constexpr std::uint16_t registers = 4;
 constexpr std::uint16_t setpoint_register = 0x0010;
 constexpr auto format = ferrule::modbus::default_format;
 
-board::uart_stream uart(format);
+constinit board::uart_stream uart(format);
 // RTU only, FC 3 and 6 only: the TCP path and the other function codes are not compiled in.
 using client_type = ferrule::modbus::basic_client<
     ferrule::modbus::link_mode::rtu,
     ferrule::modbus::functions<ferrule::modbus::function::read_holding_registers,
                                ferrule::modbus::function::write_single_register>>;
-client_type session([] {
+constinit client_type session([] {
     ferrule::modbus::client_config c;
     c.format = format;
     c.inter_frame_gap = ferrule::modbus::t35(format);

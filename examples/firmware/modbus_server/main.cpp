@@ -21,8 +21,8 @@ namespace {
 constexpr auto format = ferrule::modbus::default_format;
 using model = ferrule::modbus::memory_model<32, 32, 64, 32>;
 
-board::uart_stream uart(format);
-ferrule::modbus::server<model, ferrule::modbus::link_mode::rtu> session(
+constinit board::uart_stream uart(format);
+constinit ferrule::modbus::server<model, ferrule::modbus::link_mode::rtu> session(
     [] {
         ferrule::modbus::server_config c;
         c.units = {17};

@@ -12,9 +12,9 @@
 #include "../common/stm32f4_uart.hpp"
 
 namespace {
-board::uart_stream uart(ferrule::movilink::default_format);
-ferrule::movilink::master movilink_master;
-ferrule::movilink::cyclic drive(movilink_master, 1);
+constinit board::uart_stream uart(ferrule::movilink::default_format);
+constinit ferrule::movilink::master movilink_master;
+constinit ferrule::movilink::cyclic drive(movilink_master, 1);
 
 // PLC-style outputs of this example, e.g. for a display task.
 volatile std::uint16_t status_word = 0;

@@ -60,3 +60,29 @@ inline std::error_code make_error_code(errc e) noexcept {
 
 template <>
 struct std::is_error_code_enum<ferrule::errc> : std::true_type {};
+
+namespace ferrule {
+
+// A std::error_code kept in a session or a result<T>. Unlike std::error_code it is a literal
+// type, so a session can be constinit (firmware runs no start-up code for it), and making an
+// empty one calls no category function. Empty holds "no error", whatever its category was.
+class stored_error {
+public:
+    constexpr stored_error() noexcept = default;
+    stored_error(std::error_code ec) noexcept
+        : value_(ec.value()), category_(ec ? &ec.category() : nullptr) {}
+    template <class E>
+    requires std::is_error_code_enum_v<E> stored_error(E e)
+    noexcept : stored_error(make_error_code(e)) {}
+
+    constexpr explicit operator bool() const noexcept { return category_ != nullptr; }
+    operator std::error_code() const noexcept {
+        return category_ ? std::error_code(value_, *category_) : std::error_code();
+    }
+
+private:
+    int value_ = 0;
+    const std::error_category* category_ = nullptr;
+};
+
+} // namespace ferrule

@@ -6,6 +6,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "ferrule/core/error.hpp"
+
 namespace ferrule {
 
 template <class T>
@@ -31,7 +33,7 @@ public:
 
 private:
     T value_{};
-    std::error_code ec_{};
+    stored_error ec_{};
 };
 
 } // namespace ferrule

@@ -70,7 +70,7 @@ struct sensor_stats {
 
 class sensor {
 public:
-    explicit sensor(const sensor_config& cfg = {}) noexcept : cfg_(cfg) {}
+    constexpr explicit sensor(const sensor_config& cfg = {}) noexcept : cfg_(cfg) {}
 
     // One command: send it, wait for its answer, retry as configured.
     std::error_code start(const command& c) noexcept {
@@ -233,7 +233,7 @@ private:
     unsigned retries_ = 0;
     unsigned failures_ = 0;
     std::size_t tx_size_ = 0;
-    std::error_code error_{};
+    stored_error error_{};
     time_point deadline_{};
     duration timeout_{};
     sensor_stats stats_{};

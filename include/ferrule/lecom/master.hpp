@@ -85,7 +85,7 @@ struct master_stats {
 
 class master {
 public:
-    explicit master(const master_config& cfg = {}) noexcept
+    constexpr explicit master(const master_config& cfg = {}) noexcept
         : cfg_(cfg), reply_allowance_(cfg.format.chars_time(max_reply_length)) {}
 
     // RECEIVE: read code `c` of drive `address` (01…99, not x0: a group never answers).
@@ -317,7 +317,7 @@ private:
         std::size_t rx_size = 0;
         time_point send_after = time_point::min();
         time_point deadline{}; // end of the request + response_timeout (broadcast_spacing)
-        std::error_code error{};
+        stored_error error{};
     };
 
     master_config cfg_;

@@ -64,7 +64,7 @@ struct master_stats {
 
 class master {
 public:
-    explicit master(const master_config& cfg = {}) noexcept : cfg_(cfg) {}
+    constexpr explicit master(const master_config& cfg = {}) noexcept : cfg_(cfg) {}
 
     // Starts a transaction. The CPU byte is the configuration's, not r.cpu. invalid_argument
     // for a request encode_command() refuses (limits of §3.4, words or bits that do not match
@@ -224,7 +224,7 @@ private:
     std::size_t tx_size_ = 0;
     message_decoder rx_{};
     time_point deadline_{};
-    std::error_code error_{};
+    stored_error error_{};
     unsigned attempts_ = 0;
     std::uint8_t next_serial_ = 0;
     bool garbage_ = false; // bytes that start no message in this attempt

@@ -89,7 +89,7 @@ struct client_stats {
 template <link_mode Link = link_mode::any, function_set Fs = all_functions>
 class basic_client {
 public:
-    explicit basic_client(const client_config& cfg = {}) noexcept
+    constexpr explicit basic_client(const client_config& cfg = {}) noexcept
         : cfg_(cfg), char_time_(cfg.format.char_time()), silence_(t35(cfg.format) + char_time_),
           adu_time_(cfg.format.chars_time(max_rtu_adu)) {
         if constexpr (Link != link_mode::any) cfg_.rtu = Link == link_mode::rtu;
@@ -403,8 +403,8 @@ private:
     time_point send_after_ = time_point::min();
     time_point tx_end_{};
     time_point last_rx_{};
-    std::error_code error_{};
-    std::error_code decode_error_{}; // garbage or a bad CRC in this attempt
+    stored_error error_{};
+    stored_error decode_error_{}; // garbage or a bad CRC in this attempt
     std::size_t echo_pos_ = 0;       // bytes of our echo matched so far
     unsigned attempts_ = 0;
     std::uint16_t transaction_ = 0;

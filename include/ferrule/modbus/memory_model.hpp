@@ -46,8 +46,8 @@ class memory_model {
                   "a Modbus table has at most 65536 entries");
 
 public:
-    memory_model() = default;
-    explicit memory_model(const memory_map& map, const device_identity& id = {}) noexcept
+    constexpr memory_model() = default;
+    constexpr explicit memory_model(const memory_map& map, const device_identity& id = {}) noexcept
         : map_(map), id_(id) {}
 
     // --- data_model ------------------------------------------------------------------------

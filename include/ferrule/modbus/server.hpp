@@ -128,7 +128,7 @@ public:
     // TCP: bytes behind a pending request that are kept for later (one full request).
     static constexpr std::size_t held_capacity = max_tcp_adu;
 
-    explicit server(const server_config& cfg = {}, M model = M{}) noexcept
+    constexpr explicit server(const server_config& cfg = {}, M model = M{}) noexcept
         : cfg_(cfg), model_(std::move(model)) {
         if constexpr (Link != link_mode::any)
             cfg_.transport = Link == link_mode::rtu ? transport::rtu : transport::tcp;

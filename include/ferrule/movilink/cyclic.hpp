@@ -19,7 +19,7 @@ class cyclic {
 public:
     // `words` PD words per cycle (1-3); `acyclic_types` selects TYP 0x8x, which the drive does
     // not watch with its RS-485 timeout (SC01 p.17): cyclic types are the safe default.
-    cyclic(master& m, std::uint8_t address, std::size_t words = 3,
+    constexpr cyclic(master& m, std::uint8_t address, std::size_t words = 3,
            bool acyclic_types = false) noexcept
         : m_(m), address_(address), words_(words), acyclic_(acyclic_types) {}
 
@@ -109,11 +109,11 @@ private:
     std::array<std::uint16_t, max_pd_words> pi_{};
     param_channel param_req_{};
     param_state param_state_ = param_state::none;
-    std::error_code param_error_{};
+    stored_error param_error_{};
     std::uint32_t param_value_ = 0;
     std::uint32_t cycles_ = 0;
     std::uint32_t failed_ = 0;
-    std::error_code last_error_{};
+    stored_error last_error_{};
 };
 
 } // namespace ferrule::movilink

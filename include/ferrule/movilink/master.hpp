@@ -55,7 +55,7 @@ struct master_stats {
 
 class master {
 public:
-    explicit master(const master_config& cfg = {}) noexcept : cfg_(cfg) {}
+    constexpr explicit master(const master_config& cfg = {}) noexcept : cfg_(cfg) {}
 
     // Process data only: PO words out, PI words back. `po` holds pd_words(type) words.
     // A PARAM+nPD type is allowed; its parameter channel then carries "no service".
@@ -311,7 +311,7 @@ private:
     time_point last_activity_{};
     time_point tx_end_{};
     duration pause_ = movilink::start_pause;
-    std::error_code error_{};
+    stored_error error_{};
     unsigned attempts_ = 0;
     unsigned handshake_polls_ = 0;
     unsigned consecutive_failures_ = 0;

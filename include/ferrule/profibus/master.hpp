@@ -98,7 +98,7 @@ enum class service : std::uint8_t {
 
 class master {
 public:
-    explicit master(const master_config& cfg = {}) noexcept : cfg_(cfg) {
+    constexpr explicit master(const master_config& cfg = {}) noexcept : cfg_(cfg) {
         if (cfg_.slot_time == duration::zero())
             cfg_.slot_time = bit_times(cfg_.format.baud, slot_time_bits(cfg_.format.baud));
     }
@@ -452,8 +452,8 @@ private:
     time_point send_after_ = time_point::min();
     time_point tx_end_{};
     time_point last_rx_{};
-    std::error_code error_{};
-    std::error_code decode_error_{}; // garbage or an FCS error in this attempt
+    stored_error error_{};
+    stored_error decode_error_{}; // garbage or an FCS error in this attempt
     unsigned attempts_ = 0;
     std::uint8_t da_ = 0;
     profibus::response_fn response_fn_ = response_fn::ok;
