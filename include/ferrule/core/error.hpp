@@ -76,8 +76,12 @@ public:
     noexcept : stored_error(make_error_code(e)) {}
 
     constexpr explicit operator bool() const noexcept { return category_ != nullptr; }
+    constexpr int value() const noexcept { return value_; }
     operator std::error_code() const noexcept {
         return category_ ? std::error_code(value_, *category_) : std::error_code();
+    }
+    friend bool operator==(const stored_error& a, const std::error_code& b) noexcept {
+        return std::error_code(a) == b;
     }
 
 private:

@@ -19,6 +19,8 @@
 #include <span>
 #include <system_error>
 
+#include "ferrule/core/error.hpp"
+
 namespace ferrule {
 
 template <class Decoder, std::size_t Capacity>
@@ -28,7 +30,7 @@ public:
     struct step {
         status what = status::need_more;
         std::size_t consumed = 0; // bytes of the input used; feed the rest again
-        std::error_code ec{};
+        stored_error ec{};
     };
 
     step feed(std::span<const std::uint8_t> in) noexcept {

@@ -43,6 +43,8 @@
 #include <span>
 #include <system_error>
 
+#include "ferrule/core/bytes.hpp"
+#include "ferrule/core/checksum.hpp"
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
@@ -106,20 +108,33 @@ public:
             r.function != function::write_multiple_coils &&
             r.function != function::write_multiple_registers)
             return errc::invalid_argument;
-        const auto n = encode_request<Fs>(r, pdu_);
+        // The PDU is encoded in place, behind the RTU address or the MBAP header.
+        std::uint8_t* const pdu = tx_.data() + pdu_offset();
+        const auto n = encode_request<Fs>(r, {pdu, max_pdu});
         if (!n) return n.error();
         pdu_size_ = *n;
         sent_ = r;
         // parse_response() reads the request's data only for FC 8's echo (AP §6.8.1), and the
         // caller's may not live on: it is taken from the PDU.
         sent_.data = detail::one_of<Fs, function::diagnostics>(r.function)
-                         ? std::span<const std::uint8_t>(pdu_.data() + 3, 2)
+                         ? std::span<const std::uint8_t>(pdu + 3, 2)
                          : std::span<const std::uint8_t>{};
         unit_ = unit;
         no_reply_ =
             broadcast || (r.function == function::diagnostics &&
                           r.value == static_cast<std::uint16_t>(diag_sub::force_listen_only));
-        if (rtu()) tx_size_ = *encode_rtu(unit, pdu(), tx_);
+        if (rtu()) {
+            tx_[0] = unit;
+            tx_size_ = 1 + pdu_size_;
+            const std::uint16_t crc = crc16_modbus({tx_.data(), tx_size_});
+            tx_[tx_size_++] = static_cast<std::uint8_t>(crc);
+            tx_[tx_size_++] = static_cast<std::uint8_t>(crc >> 8);
+        } else {
+            tx_size_ = mbap_size + pdu_size_;
+            store_be16(&tx_[2], 0); // protocol id (TCP §3.1.3)
+            store_be16(&tx_[4], static_cast<std::uint16_t>(pdu_size_ + 1));
+            tx_[6] = unit;
+        }
         attempts_ = 0;
         error_ = {};
         response_ = {};
@@ -162,9 +177,10 @@ public:
             hold(now, cfg_.inter_frame_gap); // the line is busy until now
             if (state_ == state::awaiting && cfg_.inter_byte_timeout.count() > 0 &&
                 rtu_.in_frame() &&
-                before(last_rx_ + cfg_.inter_byte_timeout, now - cfg_.format.chars_time(in.size()))) {
+                before(last_rx_ + cfg_.inter_byte_timeout,
+                       now - cfg_.format.chars_time(in.size()))) {
                 last_rx_ = now;
-                fail(errc::frame_gap, true);
+                fail(errc::frame_gap);
                 stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
                 return;
             }
@@ -216,7 +232,9 @@ public:
     // response), as received; empty when none did. Valid until the next start().
     std::span<const std::uint8_t> response_pdu() const noexcept { return rx_; }
     // The request PDU and the ADU as last sent.
-    std::span<const std::uint8_t> pdu() const noexcept { return {pdu_.data(), pdu_size_}; }
+    std::span<const std::uint8_t> pdu() const noexcept {
+        return {tx_.data() + pdu_offset(), pdu_size_};
+    }
     std::span<const std::uint8_t> request_bytes() const noexcept { return {tx_.data(), tx_size_}; }
     std::uint8_t unit() const noexcept { return unit_; }
     std::uint16_t transaction() const noexcept { return transaction_; } // TCP: last id sent
@@ -241,6 +259,8 @@ private:
             return Link == link_mode::rtu;
     }
 
+    constexpr std::size_t pdu_offset() const noexcept { return rtu() ? 1 : mbap_size; }
+
     enum class state : std::uint8_t { idle, pending_send, awaiting, no_reply, done };
     using decoder = basic_rtu_decoder<Fs, rtu_frames::responses>; // responses of Fs only
 
@@ -248,32 +268,33 @@ private:
         if (++attempts_ > 1) ++stats_.resends;
         if (!rtu()) {
             ++transaction_;
-            tx_size_ = *encode_tcp(transaction_, unit_, pdu(), tx_);
+            store_be16(&tx_[0], transaction_);
         }
         tx_end_ = rtu() ? now + cfg_.format.chars_time(tx_size_) : now;
         last_rx_ = tx_end_;
         rtu_.reset();
         tcp_.reset();
         heard_ = false;
-        decode_error_ = {};
+        decode_error_ = errc{};
         echo_pos_ = rtu() && cfg_.echo_suppression ? 0 : tx_size_;
-        if (rtu()) hold(tx_end_, cfg_.inter_frame_gap);
+        duration quiet = rtu() ? cfg_.inter_frame_gap : duration::zero();
         if (no_reply_) {
             ++stats_.broadcasts;
-            hold(tx_end_, cfg_.turnaround);
+            if (quiet.count() < cfg_.turnaround.count()) quiet = cfg_.turnaround;
             state_ = state::no_reply;
         } else {
             state_ = state::awaiting;
         }
+        hold(tx_end_, quiet);
         return session_action::send({tx_.data(), tx_size_}, cfg_.discard_stale_input);
     }
 
     time_point deadline_now() const noexcept {
         const time_point base = tx_end_ + cfg_.response_timeout;
-        if (!rtu() || (!decode_error_ && !rtu_.in_frame())) return base;
+        if (!rtu() || (!garbled() && !rtu_.in_frame())) return base;
         // Bytes are arriving: they may go on until the wire time of a whole ADU past base.
         const time_point late = base + adu_time_;
-        if (decode_error_) {
+        if (garbled()) {
             // Garbage or a bad CRC: the attempt ends when the line has been silent for t3.5
             // (SL §2.5.1.1), that is when a byte begun by then would have arrived.
             const time_point silent = last_rx_ + silence_;
@@ -286,14 +307,14 @@ private:
 
     void expire(time_point deadline) noexcept {
         const duration ibt = cfg_.inter_byte_timeout;
-        const bool gap = rtu() && !decode_error_ && rtu_.in_frame() && ibt.count() > 0 &&
+        const bool gap = rtu() && !garbled() && rtu_.in_frame() && ibt.count() > 0 &&
                          deadline == last_rx_ + char_time_ + ibt;
-        if (rtu() && (decode_error_ || rtu_.in_frame())) {
+        if (rtu() && (garbled() || rtu_.in_frame())) {
             // The silence ends what was received: a frame in it still counts.
             typename decoder::step s;
             do {
                 s = rtu_.finish();
-                if (s.what == decoder::status::error && !decode_error_) decode_error_ = s.ec;
+                if (s.what == decoder::status::error) note(s.ec);
                 if (s.what == decoder::status::frame) {
                     evaluate(rtu_.address(), rtu_.pdu());
                     if (state_ != state::awaiting) return;
@@ -301,11 +322,11 @@ private:
             } while (s.what != decoder::status::need_more);
         }
         if (gap)
-            fail(errc::frame_gap, true);
-        else if (decode_error_)
-            fail(decode_error_, true);
+            fail(errc::frame_gap);
+        else if (garbled())
+            fail(decode_error_);
         else
-            fail(heard_ ? errc::malformed : errc::timeout, true);
+            fail(heard_ ? errc::malformed : errc::timeout);
     }
 
     void feed_rtu(std::span<const std::uint8_t> in) noexcept {
@@ -313,7 +334,7 @@ private:
         do {
             s = rtu_.feed(in);
             in = in.subspan(s.consumed);
-            if (s.what == decoder::status::error && !decode_error_) decode_error_ = s.ec;
+            if (s.what == decoder::status::error) note(s.ec);
             if (s.what == decoder::status::frame) evaluate(rtu_.address(), rtu_.pdu());
         } while (s.what != decoder::status::need_more && state_ == state::awaiting);
         stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
@@ -324,7 +345,7 @@ private:
         do {
             s = tcp_.feed(in);
             in = in.subspan(s.consumed);
-            if (s.what == tcp_decoder::status::error && !decode_error_) decode_error_ = s.ec;
+            if (s.what == tcp_decoder::status::error) note(s.ec);
             if (s.what != tcp_decoder::status::frame) continue;
             if (tcp_.transaction() != transaction_) {
                 stats_.stale_bytes += static_cast<std::uint32_t>(tcp_.adu().size());
@@ -337,16 +358,22 @@ private:
 
     void evaluate(std::uint8_t unit, std::span<const std::uint8_t> pdu) noexcept {
         if (unit != unit_) {
-            fail(errc::unexpected_address, true);
+            fail(errc::unexpected_address);
             return;
         }
         // The PDU stays in the decoder's buffer: nothing more is fed to it until the next
         // attempt, and none follows a response that answers.
         if (const std::error_code ec = parse_response<Fs>(sent_, pdu, response_)) {
-            const bool exception = ec.category() == device_category();
-            rx_ = exception ? pdu : std::span<const std::uint8_t>{};
             response_ = {};
-            fail(ec, !exception);
+            if (ec.category() != device_category()) {
+                fail(static_cast<errc>(ec.value())); // parse_response's own are ferrule::errc
+                return;
+            }
+            // An exception response is the server's answer: it is not resent.
+            rx_ = pdu;
+            ++stats_.exceptions;
+            ++stats_.failed;
+            finish(ec);
             return;
         }
         rx_ = pdu;
@@ -354,28 +381,30 @@ private:
         finish({});
     }
 
-    void fail(std::error_code ec, bool may_retry) noexcept {
-        if (ec.category() == device_category())
-            ++stats_.exceptions;
-        else if (ec.category() != errc_category())
-            ++stats_.malformed;
-        else
-            switch (static_cast<errc>(ec.value())) {
-            case errc::timeout: ++stats_.timeouts; break;
-            case errc::bad_checksum: ++stats_.bad_checksums; break;
-            case errc::unexpected_address: ++stats_.unexpected_units; break;
-            default: ++stats_.malformed; break;
-            }
-        if (may_retry && attempts_ <= cfg_.retries) {
-            error_ = ec; // the cause so far, replaced by the final outcome
+    // A failed attempt, resent while retries are left.
+    void fail(errc e) noexcept {
+        switch (e) {
+        case errc::timeout: ++stats_.timeouts; break;
+        case errc::bad_checksum: ++stats_.bad_checksums; break;
+        case errc::unexpected_address: ++stats_.unexpected_units; break;
+        default: ++stats_.malformed; break;
+        }
+        error_ = e; // when resent, the cause so far, replaced by the final outcome
+        if (attempts_ <= cfg_.retries) {
             state_ = state::pending_send;
             return;
         }
         ++stats_.failed;
-        finish(ec);
+        state_ = state::done;
     }
 
-    void finish(std::error_code ec) noexcept {
+    bool garbled() const noexcept { return decode_error_ != errc{}; }
+    // Keeps the attempt's first decoding error (the decoders report ferrule::errc).
+    void note(const stored_error& ec) noexcept {
+        if (!garbled()) decode_error_ = static_cast<errc>(ec.value());
+    }
+
+    void finish(stored_error ec) noexcept {
         error_ = ec;
         state_ = state::done;
     }
@@ -393,7 +422,6 @@ private:
     state state_ = state::idle;
     request sent_{};
     modbus::response response_{};
-    std::array<std::uint8_t, max_pdu> pdu_{};
     std::size_t pdu_size_ = 0;
     std::array<std::uint8_t, max_tcp_adu> tx_{};
     std::size_t tx_size_ = 0;
@@ -404,8 +432,8 @@ private:
     time_point tx_end_{};
     time_point last_rx_{};
     stored_error error_{};
-    stored_error decode_error_{}; // garbage or a bad CRC in this attempt
-    std::size_t echo_pos_ = 0;       // bytes of our echo matched so far
+    errc decode_error_{};      // garbage or a bad CRC in this attempt (the decoders report errc)
+    std::size_t echo_pos_ = 0; // bytes of our echo matched so far
     unsigned attempts_ = 0;
     std::uint16_t transaction_ = 0;
     std::uint8_t unit_ = 0;
