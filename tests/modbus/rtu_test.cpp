@@ -153,6 +153,48 @@ TEST_CASE("modbus rtu_decoder frames responses of every function code, byte by b
     }
 }
 
+TEST_CASE("modbus rtu_decoder frames the other public function codes, a client decoder not",
+          "[modbus][rtu]") {
+    // FC 7 (read exception status) and FC 17 (report server id, byte count + data), then FC 3.
+    const bytes fc7 = rtu(0x11, {0x07, 0x6D});
+    const bytes fc17 = rtu(0x11, {0x11, 0x03, 'A', 'B', 'C'});
+    const bytes fc3 = rtu(0x11, {0x03, 0x02, 0x00, 0x64});
+    bytes stream = fc7;
+    stream.insert(stream.end(), fc17.begin(), fc17.end());
+    stream.insert(stream.end(), fc3.begin(), fc3.end());
+
+    rtu_decoder tool;
+    const auto all = feed_all(tool, stream);
+    CHECK(all.errors.empty());
+    CHECK(all.frames.size() == 3);
+
+    // A client frames only the responses to the functions it can send: the others are bytes
+    // that start no frame, skipped until the FC 3 response.
+    using client_decoder = basic_rtu_decoder<all_functions, rtu_frames::responses>;
+    client_decoder client;
+    std::span<const std::uint8_t> in(stream);
+    std::vector<bytes> frames;
+    std::size_t errors = 0;
+    client_decoder::step s;
+    do {
+        s = client.feed(in);
+        in = in.subspan(s.consumed);
+        if (s.what == client_decoder::status::error) {
+            CHECK(s.ec == errc::malformed);
+            ++errors;
+        }
+        if (s.what == client_decoder::status::frame) {
+            bytes f{client.address()};
+            f.insert(f.end(), client.pdu().begin(), client.pdu().end());
+            frames.push_back(f);
+        }
+    } while (s.what != client_decoder::status::need_more);
+    CHECK(errors >= 1);
+    REQUIRE(frames.size() == 1);
+    CHECK(frames[0] == bytes(fc3.begin(), fc3.end() - 2));
+    CHECK(client.skipped() == fc7.size() + fc17.size());
+}
+
 TEST_CASE("modbus rtu_decoder frames requests of every function code", "[modbus][rtu]") {
     const std::vector<bytes> pdus{
         {0x01, 0x00, 0x13, 0x00, 0x25},

@@ -133,63 +133,61 @@ constexpr bool one_of(function f) noexcept {
 // and for a function not in `Fs`.
 template <function_set Fs = all_functions>
 result<std::size_t> encode_request(const request& r, std::span<std::uint8_t> out) noexcept {
+    using detail::fits;
+    using detail::in;
     using detail::one_of;
-    std::array<std::uint8_t, max_pdu> b; // each branch writes the n bytes it returns
-    std::size_t n = 5;
     const function f = r.function;
-    b[0] = static_cast<std::uint8_t>(f);
-    store_be16(&b[1], r.address);
-    store_be16(&b[3], r.quantity);
+    std::size_t n = 5;                 // function code, then two 16-bit fields …
+    std::uint16_t second = r.quantity; // … address and quantity, or address and value
+    std::size_t data = 0;              // … then r.data, at the end
+    bool ok;
     if (one_of<Fs, function::read_coils, function::read_discrete_inputs>(f)) {
-        if (!detail::in(r.quantity, 1, max_read_bits) || !detail::fits(r.address, r.quantity))
-            return errc::invalid_argument;
+        ok = in(r.quantity, 1, max_read_bits) && fits(r.address, r.quantity);
     } else if (one_of<Fs, function::read_holding_registers, function::read_input_registers>(f)) {
-        if (!detail::in(r.quantity, 1, max_read_registers) || !detail::fits(r.address, r.quantity))
-            return errc::invalid_argument;
-    } else if (one_of<Fs, function::write_single_coil>(f)) {
-        if (r.value != coil_on && r.value != coil_off) return errc::invalid_argument;
-        store_be16(&b[3], r.value);
-    } else if (one_of<Fs, function::write_single_register>(f)) {
-        store_be16(&b[3], r.value);
+        ok = in(r.quantity, 1, max_read_registers) && fits(r.address, r.quantity);
+    } else if (one_of<Fs, function::write_single_coil, function::write_single_register>(f)) {
+        ok = f == function::write_single_register || r.value == coil_on || r.value == coil_off;
+        second = r.value;
     } else if (one_of<Fs, function::diagnostics>(f)) {
-        if (r.data.size() != 2) return errc::invalid_argument;
-        store_be16(&b[1], r.value);
-        b[3] = r.data[0];
-        b[4] = r.data[1];
+        ok = r.data.size() == 2; // sub-function, then its data
+        n = 3;
+        data = 2;
     } else if (one_of<Fs, function::write_multiple_coils, function::write_multiple_registers>(f)) {
         const bool coils = f == function::write_multiple_coils;
-        const std::size_t bytes = coils ? packed_size(r.quantity) : 2u * r.quantity;
-        if (!detail::in(r.quantity, 1, coils ? max_write_bits : max_write_registers) ||
-            !detail::fits(r.address, r.quantity) || r.data.size() != bytes)
-            return errc::invalid_argument;
-        b[5] = static_cast<std::uint8_t>(bytes);
-        for (std::size_t i = 0; i < bytes; ++i) b[6 + i] = r.data[i];
-        n = 6 + bytes;
+        data = coils ? packed_size(r.quantity) : 2u * r.quantity;
+        ok = in(r.quantity, 1, coils ? max_write_bits : max_write_registers) &&
+             fits(r.address, r.quantity) && r.data.size() == data;
+        n = 6; // and the byte count
     } else if (one_of<Fs, function::read_write_multiple_registers>(f)) {
-        if (!detail::in(r.quantity, 1, max_read_registers) ||
-            !detail::in(r.write_quantity, 1, max_rw_write_registers) ||
-            !detail::fits(r.address, r.quantity) ||
-            !detail::fits(r.write_address, r.write_quantity) ||
-            r.data.size() != 2u * r.write_quantity)
-            return errc::invalid_argument;
-        store_be16(&b[5], r.write_address);
-        store_be16(&b[7], r.write_quantity);
-        b[9] = static_cast<std::uint8_t>(r.data.size());
-        for (std::size_t i = 0; i < r.data.size(); ++i) b[10 + i] = r.data[i];
-        n = 10 + r.data.size();
+        data = 2u * r.write_quantity;
+        ok = in(r.quantity, 1, max_read_registers) &&
+             in(r.write_quantity, 1, max_rw_write_registers) && fits(r.address, r.quantity) &&
+             fits(r.write_address, r.write_quantity) && r.data.size() == data;
+        n = 10; // write address, write quantity, byte count
     } else if (one_of<Fs, function::encapsulated_interface>(f)) {
-        if (r.mei_type != mei_read_device_id || !detail::in(r.read_device_id_code, 1, 4))
-            return errc::invalid_argument;
-        b[1] = r.mei_type;
-        b[2] = r.read_device_id_code;
-        b[3] = r.object_id;
+        ok = r.mei_type == mei_read_device_id && in(r.read_device_id_code, 1, 4);
         n = 4;
     } else {
-        return errc::invalid_argument;
+        ok = false;
     }
-    if (out.size() < n) return errc::buffer_too_small;
-    for (std::size_t i = 0; i < n; ++i) out[i] = b[i];
-    return n;
+    if (!ok) return errc::invalid_argument;
+    if (out.size() < n + data) return errc::buffer_too_small;
+    out[0] = static_cast<std::uint8_t>(f);
+    if (one_of<Fs, function::encapsulated_interface>(f)) {
+        out[1] = r.mei_type;
+        out[2] = r.read_device_id_code;
+        out[3] = r.object_id;
+        return n;
+    }
+    store_be16(&out[1], one_of<Fs, function::diagnostics>(f) ? r.value : r.address);
+    if (n >= 5) store_be16(&out[3], second);
+    if (n >= 6) out[n - 1] = static_cast<std::uint8_t>(data);
+    if (n == 10) {
+        store_be16(&out[5], r.write_address);
+        store_be16(&out[7], r.write_quantity);
+    }
+    for (std::size_t i = 0; i < data; ++i) out[n + i] = r.data[i];
+    return n + data;
 }
 
 // Length of a request PDU from its first bytes: 0 = need more, no_frame = cannot be framed.
@@ -225,12 +223,13 @@ constexpr std::size_t expected_request_length(std::span<const std::uint8_t> p) n
 
 // Length of a response PDU from its first bytes: 0 = need more, no_frame = cannot be framed.
 // With all functions, the other fixed-layout public ones (7, 11, 12, 17, 20-22, 24) are
-// framed too; with a smaller set only its own and exception responses are.
-template <function_set Fs = all_functions>
+// framed too (`Others`: a tool that reads a whole bus); a client frames only the responses
+// to what it can send, and exception responses.
+template <function_set Fs = all_functions, bool Others = Fs.mask == all_functions.mask>
 constexpr std::size_t expected_response_length(std::span<const std::uint8_t> p) noexcept {
     if (p.empty()) return 0;
     if (p[0] > exception_flag) return 2; // FC | 0x80, exception code (AP §7)
-    constexpr bool others = Fs.mask == all_functions.mask;
+    constexpr bool others = Others;
     const std::uint8_t fc = p[0];
     const auto counted = [&](std::size_t header) {
         return p.size() < header ? 0 : detail::limited(header + p[header - 1]);

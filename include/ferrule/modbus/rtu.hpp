@@ -116,7 +116,7 @@ private:
             if (size_ < 2) return {};
             const auto pdu = std::span<const std::uint8_t>(buf_.data() + 1, size_ - 1);
             const std::size_t len =
-                requests() ? expected_request_length(pdu) : expected_response_length<Fs>(pdu);
+                requests() ? expected_request_length(pdu) : response_length(pdu);
             if (len == 0) return {};
             if (len == no_frame) {
                 // A request of an unknown function code waits for finish() (the silence after
@@ -133,6 +133,13 @@ private:
             }
             return yield(total);
         }
+    }
+
+    // Responses of the public function codes outside `function` too: rtu_decoder, for tools
+    // that read a whole bus. A client frames only the responses to what it can send.
+    static constexpr bool others = Frames == rtu_frames::either && Fs.mask == all_functions.mask;
+    static constexpr std::size_t response_length(std::span<const std::uint8_t> pdu) noexcept {
+        return expected_response_length<Fs, others>(pdu);
     }
 
     accept accept_ = accept::responses;
