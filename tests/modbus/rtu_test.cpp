@@ -153,7 +153,7 @@ TEST_CASE("modbus rtu_decoder frames responses of every function code, byte by b
     }
 }
 
-TEST_CASE("modbus rtu_decoder frames the other public function codes, a client decoder not",
+TEST_CASE("modbus rtu_decoder frames the other public function codes and a client decoder not",
           "[modbus][rtu]") {
     // FC 7 (read exception status) and FC 17 (report server id, byte count + data), then FC 3.
     const bytes fc7 = rtu(0x11, {0x07, 0x6D});
@@ -169,18 +169,16 @@ TEST_CASE("modbus rtu_decoder frames the other public function codes, a client d
     CHECK(all.frames.size() == 3);
 
     // A client frames only the responses to the functions it can send: the others are bytes
-    // that start no frame, skipped until the FC 3 response.
+    // that start no frame (or a false one, that fails its CRC), skipped until the FC 3
+    // response, which is found at the latest when the line falls silent.
     using client_decoder = basic_rtu_decoder<all_functions, rtu_frames::responses>;
     client_decoder client;
     std::span<const std::uint8_t> in(stream);
     std::vector<bytes> frames;
     std::size_t errors = 0;
-    client_decoder::step s;
-    do {
-        s = client.feed(in);
-        in = in.subspan(s.consumed);
+    const auto take = [&](const client_decoder::step& s) {
         if (s.what == client_decoder::status::error) {
-            CHECK(s.ec == errc::malformed);
+            CHECK((s.ec == errc::malformed || s.ec == errc::bad_checksum));
             ++errors;
         }
         if (s.what == client_decoder::status::frame) {
@@ -188,6 +186,16 @@ TEST_CASE("modbus rtu_decoder frames the other public function codes, a client d
             f.insert(f.end(), client.pdu().begin(), client.pdu().end());
             frames.push_back(f);
         }
+    };
+    client_decoder::step s;
+    do {
+        s = client.feed(in);
+        in = in.subspan(s.consumed);
+        take(s);
+    } while (s.what != client_decoder::status::need_more);
+    do {
+        s = client.finish();
+        take(s);
     } while (s.what != client_decoder::status::need_more);
     CHECK(errors >= 1);
     REQUIRE(frames.size() == 1);

@@ -129,7 +129,7 @@ public:
     static constexpr std::size_t held_capacity = max_tcp_adu;
 
     constexpr explicit server(const server_config& cfg = {}, M model = M{}) noexcept
-        : cfg_(cfg), model_(std::move(model)) {
+        : cfg_(cfg), t35_(modbus::t35(cfg.format)), model_(std::move(model)) {
         if constexpr (Link != link_mode::any)
             cfg_.transport = Link == link_mode::rtu ? transport::rtu : transport::tcp;
     }
@@ -149,7 +149,7 @@ public:
         }
         // RTU: a silence of t3.5 before these bytes ended the frame before them (SL
         // §2.5.1.1). Bytes take their wire time, so the chunk began that long before `end`.
-        if (rtu_.in_frame() && end - cfg_.format.chars_time(bytes.size()) >= rx_end_ + t35())
+        if (rtu_.in_frame() && !before(end - cfg_.format.chars_time(bytes.size()), rx_end_ + t35()))
             finish_rtu();
         rx_end_ = end;
         feed_rtu(bytes, end);
@@ -289,7 +289,7 @@ private:
         return pdu.size() == 5 && pdu[0] == static_cast<std::uint8_t>(function::diagnostics) &&
                load_be16(&pdu[1]) == static_cast<std::uint16_t>(diag_sub::restart_comm);
     }
-    duration t35() const noexcept { return modbus::t35(cfg_.format); }
+    duration t35() const noexcept { return t35_; }
 
     // --- RTU -------------------------------------------------------------------------------
     void feed_rtu(std::span<const std::uint8_t> in, time_point end) noexcept {
@@ -511,6 +511,7 @@ private:
     }
 
     server_config cfg_;
+    duration t35_; // of cfg_.format
     M model_;
     diagnostic_counters counters_{};
     server_stats stats_{};
