@@ -1,0 +1,116 @@
+// Modbus RTU server and client in one Cortex-M4 program (STM32F4 register layout, two
+// RS-485 lines at 19200 8E1): a protocol concentrator. On USART1 it is unit 17 to a PLC, a
+// memory_model of 32 coils, 32 discrete inputs, 64 holding and 32 input registers; on USART2
+// it is the client of a drive, unit 1. Between the PLC's requests the loop copies the
+// drive's input registers 0-7 (FC 4) into its own input registers 0-7 and its discrete
+// inputs 0-15 (FC 2) into its own, and writes its holding registers 0-3 to the drive's
+// registers 20-23 (FC 16) when the PLC has changed them. Neither side blocks the other.
+//
+// The client is built with every function code that ferrule's client and nanoMODBUS's both
+// have, as in modbus_client_functions, so docs/PERFORMANCE.md compares "client and server in
+// one program" on this program.
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "ferrule/core/driver.hpp"
+#include "ferrule/core/session.hpp"
+#include "ferrule/modbus/client.hpp"
+#include "ferrule/modbus/memory_model.hpp"
+#include "ferrule/modbus/registers.hpp"
+#include "ferrule/modbus/server.hpp"
+
+#include "../common/stm32f4_uart.hpp"
+
+namespace {
+namespace mb = ferrule::modbus;
+constexpr auto format = mb::default_format;
+using model = mb::memory_model<32, 32, 64, 32>;
+using client_type = mb::basic_client<
+    mb::link_mode::rtu,
+    mb::functions<mb::function::read_coils, mb::function::read_discrete_inputs,
+                  mb::function::read_holding_registers, mb::function::read_input_registers,
+                  mb::function::write_single_coil, mb::function::write_single_register,
+                  mb::function::write_multiple_coils, mb::function::write_multiple_registers,
+                  mb::function::read_write_multiple_registers,
+                  mb::function::encapsulated_interface>>;
+
+constinit board::uart_stream<board::usart1_base> plc_uart(format);
+constinit board::uart_stream<board::usart2_base> drive_uart(format);
+constinit mb::server<model, mb::link_mode::rtu> server(
+    [] {
+        mb::server_config c;
+        c.units = {17};
+        c.format = format;
+        return c;
+    }(),
+    model({}, {"ferrule", "fw-concentrator", "1.0"}));
+constinit client_type client([] {
+    mb::client_config c;
+    c.format = format;
+    c.inter_frame_gap = mb::t35(format);
+    c.response_timeout = std::chrono::milliseconds(100);
+    c.retries = 1;
+    return c;
+}());
+
+volatile std::uint32_t drive_failures = 0;
+} // namespace
+
+int main() {
+    board::init<board::usart1_base>(format);
+    board::init<board::usart2_base>(format);
+    ferrule::poll_driver drive(drive_uart, client);
+    std::array<std::uint8_t, 64> rx{};
+    std::array<std::uint16_t, 4> written{};
+    std::array<std::uint8_t, 8> out{};
+    int step = 0; // 0: FC 4, 1: FC 2, 2: FC 16 when holding 0-3 changed
+    for (;;) {
+        // The PLC's line first: a request is answered t3.5 after it ended.
+        const ferrule::io_result r = plc_uart.read_some(rx, plc_uart.now());
+        if (r.bytes > 0) server.on_receive({rx.data(), r.bytes}, plc_uart.now());
+        const ferrule::session_action a = server.next(plc_uart.now());
+        if (a.what == ferrule::session_action::kind::send) (void)plc_uart.write(a.bytes);
+
+        // Then the drive's line, one step.
+        model& m = server.model();
+        if (drive.step() != ferrule::session_action::kind::done) {
+            if (client.busy()) continue;
+            mb::request q;
+            if (step == 0) {
+                q.function = mb::function::read_input_registers;
+                q.quantity = 8;
+            } else if (step == 1) {
+                q.function = mb::function::read_discrete_inputs;
+                q.quantity = 16;
+            } else {
+                q.function = mb::function::write_multiple_registers;
+                q.address = 20;
+                q.quantity = 4;
+                for (std::size_t k = 0; k < 4; ++k) {
+                    out[2 * k] = static_cast<std::uint8_t>(m.holding_registers()[k] >> 8);
+                    out[2 * k + 1] = static_cast<std::uint8_t>(m.holding_registers()[k]);
+                }
+                q.data = out;
+            }
+            (void)client.start(1, q);
+            continue;
+        }
+        if (client.error()) {
+            drive_failures = drive_failures + 1;
+        } else if (step == 0) {
+            for (std::size_t k = 0; k < 8; ++k)
+                m.input_registers()[k] = mb::register_at(client.response().data, k);
+        } else if (step == 1) {
+            for (std::size_t k = 0; k < 16; ++k)
+                m.set_discrete_input(k, (client.response().data[k / 8] >> k % 8) & 1u);
+        } else {
+            for (std::size_t k = 0; k < 4; ++k) written[k] = m.holding_registers()[k];
+        }
+        client.clear();
+        bool changed = false;
+        for (std::size_t k = 0; k < 4; ++k)
+            changed = changed || written[k] != m.holding_registers()[k];
+        step = step == 0 ? 1 : (changed ? 2 : 0);
+    }
+}
