@@ -15,7 +15,7 @@
 //     protocol id 0, the length right); its PDU is a normal response of the length its
 //     function code predicts, or an exception (FC | 0x80, code 1-4, 6, 7)
 //   * a request built here and delivered whole after a silence (RTU) or on a clean stream
-//     (TCP) is answered by the next reply: same unit (TCP: transaction id too), and
+//     (TCP: no random bytes and no held bytes dropped yet) is answered by the next reply: same unit (TCP: transaction id too), and
 //     parse_response() accepts it as the answer to that request or gives the exception
 //   * broadcasts and requests for other units are never answered
 //   * with no input the session becomes idle within a bounded amount of virtual time
@@ -115,7 +115,11 @@ struct harness {
     void deliver(std::span<const std::uint8_t> bytes) {
         if (bytes.empty()) return;
         if (rtu) now += cfg.format.chars_time(bytes.size());
+        const auto overflowed = s.stats().overflowed;
         s.on_receive(bytes, now);
+        // TCP holds one request's worth behind a pending reply (a driver reads no more until
+        // it is sent) and drops what is beyond: the stream's framing is then unknown.
+        if (s.stats().overflowed != overflowed) tcp_clean = false;
     }
 
     void send_request() {
