@@ -26,10 +26,7 @@ struct serial_format {
     // Time one character occupies on the wire, rounded up to the next nanosecond.
     constexpr duration char_time() const noexcept { return chars_time(1); }
     // Wire time of n back-to-back characters (computed exactly, rounded up once).
-    constexpr duration chars_time(std::uint64_t n) const noexcept {
-        const std::uint64_t bits = n * bits_per_char();
-        return duration{static_cast<std::int64_t>((bits * 1'000'000'000ull + baud - 1) / baud)};
-    }
+    constexpr duration chars_time(std::uint64_t n) const noexcept;
 
     friend constexpr bool operator==(const serial_format&, const serial_format&) = default;
 
@@ -55,5 +52,25 @@ struct serial_format {
         return f;
     }
 };
+
+// chars_time() with the product that depends on the format alone taken once, for a session
+// that times every request: built in its constexpr constructor, so at compile time when the
+// session is constinit.
+class wire_clock {
+public:
+    constexpr explicit wire_clock(const serial_format& f) noexcept
+        : bit_ns_(f.bits_per_char() * 1'000'000'000ull), baud_(f.baud) {}
+    constexpr duration chars_time(std::uint64_t n) const noexcept {
+        return duration{static_cast<std::int64_t>((n * bit_ns_ + baud_ - 1) / baud_)};
+    }
+
+private:
+    std::uint64_t bit_ns_; // nanoseconds × baud of one character
+    std::uint32_t baud_;
+};
+
+constexpr duration serial_format::chars_time(std::uint64_t n) const noexcept {
+    return wire_clock(*this).chars_time(n);
+}
 
 } // namespace ferrule

@@ -27,33 +27,10 @@ public:
     };
 
     step feed(std::span<const std::uint8_t> in) noexcept {
-        line_size_ = 0;
         status what = status::need_more;
         std::size_t i = 0;
-        while (what == status::need_more && i < in.size()) {
-            const std::uint8_t b = in[i++];
-            if (skipping_) { // the rest of an overlong line, already reported
-                ++skipped_;
-                skipping_ = b != lf;
-            } else if (b == lf || size_ == buf_.size()) {
-                // At the LF a line of printable 7-bit ASCII ended by CR LF (the CR is its only
-                // control byte); anything else, or a line longer than any answer can be, is an
-                // error, reported once: an overlong line is dropped up to its LF.
-                if (b == lf && size_ >= 2 && buf_[size_ - 1] == cr && controls_ == 1) {
-                    line_size_ = size_ - 1;
-                    what = status::line;
-                } else {
-                    skipped_ += size_ + 1;
-                    skipping_ = b != lf;
-                    what = status::error;
-                }
-                size_ = 0;
-                controls_ = 0;
-            } else {
-                controls_ += b < 0x20 || b > 0x7E;
-                buf_[size_++] = b;
-            }
-        }
+        line_size_ = 0;
+        while (what == status::need_more && i < in.size()) what = push(in[i++]);
         std::error_code ec{};
         if (what == status::error) ec = errc::malformed;
         return {what, i, ec};
@@ -73,6 +50,39 @@ public:
     }
 
 private:
+    friend class sensor;
+
+    // feed() for one byte, without the error_code (the sensor reads its bytes one by one):
+    // status::line or status::error at the LF that ends a line (or at the byte that makes it
+    // overlong), else need_more. line() is then the line yielded, empty after an error.
+    status push(std::uint8_t b) noexcept {
+        if (skipping_) { // the rest of an overlong line, already reported
+            ++skipped_;
+            skipping_ = b != lf;
+            return status::need_more;
+        }
+        if (b != lf && size_ != buf_.size()) {
+            controls_ += b < 0x20 || b > 0x7E;
+            buf_[size_++] = b;
+            return status::need_more;
+        }
+        // At the LF a line of printable 7-bit ASCII ended by CR LF (the CR is its only control
+        // byte); anything else, or a line longer than any answer can be, is an error, reported
+        // once: an overlong line is dropped up to its LF.
+        status what = status::line;
+        if (b == lf && size_ >= 2 && buf_[size_ - 1] == cr && controls_ == 1) {
+            line_size_ = size_ - 1;
+        } else {
+            skipped_ += size_ + 1;
+            skipping_ = b != lf;
+            line_size_ = 0;
+            what = status::error;
+        }
+        size_ = 0;
+        controls_ = 0;
+        return what;
+    }
+
     // The counters first: Thumb code reaches them with short instructions.
     std::size_t size_ = 0;      // of the line being read
     std::size_t line_size_ = 0; // of the line just yielded

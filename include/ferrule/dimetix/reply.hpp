@@ -77,11 +77,17 @@ constexpr bool read_number(std::span<const std::uint8_t> line, std::size_t n, st
     return i != first;
 }
 
+// What parse_tail() reads: values, values whose last one is a buffer status (sNq), or
+// `@Ezzz[+b]`.
+enum class tail : std::uint8_t { values, values_status, error };
+
 // What follows the ID and mnemonic, from line[i] to n: values `±digits…` ended by the end
-// of the line (kind value) or by `?` (kind set_ack); with `error`, `@Ezzz[+b]` (i at the
-// '@'). `status_last`: the last value is a buffer status (sNq). False if malformed.
+// of the line (kind value) or by `?` (kind set_ack); with tail::error, `@Ezzz[+b]` (i at the
+// '@'). False if malformed.
 constexpr bool parse_tail(std::span<const std::uint8_t> line, std::size_t n, std::size_t i,
-                          reply& r, bool error, bool status_last) noexcept {
+                          reply& r, tail t) noexcept {
+    const bool error = t == tail::error;
+    const bool status_last = t == tail::values_status;
     // The `E` of @E introduces the code like a separator introduces a value.
     i += error;
     // Values, each `+digits` or `-digits`; the sign is the separator (S1 §8.1.3).
@@ -136,7 +142,8 @@ constexpr bool parse_into(std::span<const std::uint8_t> line, reply& r) noexcept
     }
     r.mnemonic.size = static_cast<std::uint8_t>(mn);
     const bool error = mn == 0 && i + 1 < n && line[i] == '@' && line[i + 1] == 'E';
-    if (!parse_tail(line, n, i, r, error, r.mnemonic.is('q'))) return false;
+    const tail t = error ? tail::error : r.mnemonic.is('q') ? tail::values_status : tail::values;
+    if (!parse_tail(line, n, i, r, t)) return false;
     if (r.kind == reply_kind::set_ack && mn == 0 && r.count == 0)
         r.kind = reply_kind::startup_or_ack;
     return true;
@@ -226,8 +233,17 @@ constexpr void make_answer(const command& c, answer a, reply& r) noexcept {
 
 inline constexpr reply blank_reply{}; // what read_answer() starts from
 
-// What a line is to the session waiting for the answer to a command.
-enum class line_is : std::uint8_t { answer, device_error, foreign, startup, skipped, malformed };
+// What a line is to the session waiting for the answer to a command; `timeout` is the
+// session's own outcome when no answer came in time (read_answer() never returns it).
+enum class line_is : std::uint8_t {
+    answer,
+    device_error,
+    foreign,
+    startup,
+    skipped,
+    malformed,
+    timeout
+};
 
 // The session's reading of `line` (as line_decoder yields it, without CR LF) while it waits
 // for the answer `a` (not answer::none) to `c`: check_answers() on parse_reply()'s work for
@@ -257,7 +273,7 @@ constexpr line_is read_answer(const command& c, answer a, std::span<const std::u
     r.id_digits = static_cast<std::uint8_t>(i - 1);
     const bool own_id = (c.id == command::no_id) | (id == c.id); // `|`: smaller code than `||`
     if (i + 1 < n && line[i] == '@' && line[i + 1] == 'E') {
-        if (!parse_tail(line, n, i, r, true, false)) return line_is::malformed;
+        if (!parse_tail(line, n, i, r, tail::error)) return line_is::malformed;
         return own_id ? line_is::device_error : line_is::foreign;
     }
     // The mnemonic from line[h]; for the clash from the ID's second digit.
@@ -271,7 +287,8 @@ constexpr line_is read_answer(const command& c, answer a, std::span<const std::u
     for (std::size_t k = 0; head && k < len; ++k, ++h)
         head = h < n && line[h] == static_cast<std::uint8_t>(c.mnemonic.chars[k]);
     if (head && (h == n || !is_alnum(line[h]))) {
-        if (!parse_tail(line, n, h, r, false, c.mnemonic.is('q'))) return line_is::malformed;
+        const tail t = c.mnemonic.is('q') ? tail::values_status : tail::values;
+        if (!parse_tail(line, n, h, r, t)) return line_is::malformed;
         if (a == answer::value ? r.count > 0
                                : r.kind == reply_kind::set_ack &&
                                      (r.count == 0 || (a == answer::set_ack && c.param_count > 0 &&

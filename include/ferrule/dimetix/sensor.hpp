@@ -70,7 +70,8 @@ struct sensor_stats {
 
 class sensor {
 public:
-    constexpr explicit sensor(const sensor_config& cfg = {}) noexcept : cfg_(cfg) {}
+    constexpr explicit sensor(const sensor_config& cfg = {}) noexcept
+        : wire_(cfg.format), cfg_(cfg) {}
 
     // One command: send it, wait for its answer, retry as configured.
     std::error_code start(const command& c) noexcept {
@@ -88,19 +89,19 @@ public:
             return errc::invalid_argument;
         if (latched_ && !c.mnemonic.is('c')) return errc::fault_latched;
         cmd_ = c;
-        return begin(a, s->measures ? cfg_.measurement_timeout : cfg_.command_timeout,
-                     cfg_.retries);
+        return begin(a, s->measures, cfg_.retries);
     }
 
     // The start-up of S1 §8.2.1 / the paper: sNc until the sensor acknowledges with gN?.
     std::error_code start_connect(std::uint8_t id) noexcept {
         if (busy()) return errc::busy;
         if (id > max_id || cfg_.connect_attempts == 0) return errc::invalid_argument;
-        static constexpr command stop = stop_clear(0);
-        cmd_ = stop;
+        cmd_ = {}; // stop_clear(id), built in place (smaller than a copy)
         cmd_.id = id;
+        cmd_.mnemonic.chars[0] = 'c';
+        cmd_.mnemonic.size = 1;
         // Answered gN?, without measuring (S1 §8.2.1).
-        return begin(answer::ack, cfg_.command_timeout, cfg_.connect_attempts - 1);
+        return begin(answer::ack, false, cfg_.connect_attempts - 1);
     }
 
     session_action next(time_point now) noexcept {
@@ -109,30 +110,27 @@ public:
         case state::done: return session_action::done();
         case state::pending_send: {
             if (++attempts_ > 1) ++stats_.resends;
-            const time_point end = now + cfg_.format.chars_time(tx_size_);
+            const time_point end = now + wire_.chars_time(tx_size_);
             deadline_ = end + timeout_;
             if (cfg_.discard_stale_input) decoder_.reset();
             state_ = state::awaiting;
             return session_action::send({tx_.data(), tx_size_}, cfg_.discard_stale_input);
         }
         case state::awaiting:
-            if (before(now, deadline_))
-                return session_action::wait_until(deadline_);
-            ++stats_.timeouts;
-            fail(errc::timeout, true, true);
+            if (before(now, deadline_)) return session_action::wait_until(deadline_);
+            settle(detail::line_is::timeout);
             return next(now);
         }
         return session_action::idle();
     }
 
     void on_receive(std::span<const std::uint8_t> in, time_point) noexcept {
-        while (!in.empty()) {
-            const auto step = decoder_.feed(in);
-            in = in.subspan(step.consumed);
+        for (const std::uint8_t b : in) {
+            const auto what = decoder_.push(b);
             if (state_ != state::awaiting)
-                stats_.stale_bytes += static_cast<std::uint32_t>(step.consumed);
-            else if (step.what != line_decoder::status::need_more)
-                evaluate(decoder_.line()); // empty after a malformed line: counted as one
+                ++stats_.stale_bytes;
+            else if (what != line_decoder::status::need_more)
+                evaluate(); // the line just read; empty after a malformed one: counted as one
         }
     }
 
@@ -169,40 +167,44 @@ public:
 private:
     enum class state : std::uint8_t { idle, pending_send, awaiting, done };
 
-    // cmd_, checked by start(), answered by `a` within `timeout` after it was sent.
-    std::error_code begin(answer a, duration timeout, unsigned retries) noexcept {
+    // cmd_, checked by start(), answered by `a` within measurement_timeout after it was sent
+    // if it `measures` (or writes flash), else within command_timeout.
+    std::error_code begin(answer a, bool measures, unsigned retries) noexcept {
         tx_size_ = detail::encode_unchecked(cmd_, tx_.data());
         retries_ = retries;
         attempts_ = 0;
         expect_ = a;
-        timeout_ = timeout;
+        timeout_ = measures ? cfg_.measurement_timeout : cfg_.command_timeout;
         ++stats_.transactions;
         state_ = state::pending_send;
         return error_ = {};
     }
 
-    void evaluate(std::span<const std::uint8_t> line) noexcept {
-        // The counter of each kind of line, in detail::line_is order.
+    // The line the decoder has just yielded, read against the command.
+    void evaluate() noexcept {
+        // reply_: the line read last; the answer once the command is done
+        settle(detail::read_answer(cmd_, expect_, decoder_.line(), reply_));
+    }
+
+    // The end of an attempt (a line read, or line_is::timeout), counted. One place for both, so
+    // that the retry and the fault latch of fail() are built once.
+    void settle(detail::line_is what) noexcept {
+        // The counter of each outcome, in detail::line_is order.
         static constexpr std::uint32_t sensor_stats::*counter[] = {
             &sensor_stats::succeeded, &sensor_stats::device_errors, &sensor_stats::foreign_lines,
-            &sensor_stats::startups,  &sensor_stats::skipped_lines, &sensor_stats::malformed_lines};
-        // reply_: the line read last; the answer once the command is done
-        const auto what = detail::read_answer(cmd_, expect_, line, reply_);
+            &sensor_stats::startups,  &sensor_stats::skipped_lines, &sensor_stats::malformed_lines,
+            &sensor_stats::timeouts};
         ++(stats_.*counter[static_cast<std::size_t>(what)]);
-        switch (what) {
-        case detail::line_is::answer:
+        if (what == detail::line_is::answer) {
             failures_ = 0;
             // While latched only sNc runs: its gN? has the sensor back in hand (S1 §8.2.1).
             latched_ = false;
             finish({});
-            break;
-        case detail::line_is::device_error: // gN@Ezzz: the sensor is there, but refused or failed
+        } else if (what == detail::line_is::device_error) {
+            // gN@Ezzz: the sensor is there, but refused or failed
             fail(make_device_error(reply_.error_code), cfg_.retry_device_errors, false);
-            break;
-        case detail::line_is::malformed: fail(errc::malformed, true, true); break;
-        case detail::line_is::foreign:
-        case detail::line_is::startup:
-        case detail::line_is::skipped: break;
+        } else if (what >= detail::line_is::malformed) { // the line faults: malformed, timeout
+            fail(what == detail::line_is::malformed ? errc::malformed : errc::timeout, true, true);
         }
     }
 
@@ -236,6 +238,7 @@ private:
     stored_error error_{};
     time_point deadline_{};
     duration timeout_{};
+    wire_clock wire_; // cfg_.format's character times
     sensor_stats stats_{};
     line_decoder decoder_{};
     sensor_config cfg_;
