@@ -27,14 +27,6 @@ using client_type = ferrule::modbus::basic_client<
     ferrule::modbus::link_mode::rtu,
     ferrule::modbus::functions<ferrule::modbus::function::read_holding_registers,
                                ferrule::modbus::function::write_single_register>>;
-constinit client_type session([] {
-    ferrule::modbus::client_config c;
-    c.format = format;
-    c.inter_frame_gap = ferrule::modbus::t35(format);
-    c.response_timeout = std::chrono::milliseconds(100);
-    c.retries = 2;
-    return c;
-}());
 
 // PLC-style inputs and outputs of this example, e.g. for a display task.
 volatile std::uint16_t values[units][registers] = {};
@@ -46,6 +38,17 @@ volatile bool setpoint_failed = false; // the last write was not acknowledged
 int main() {
     using namespace ferrule::modbus;
     board::init(format);
+    // The session lives in main(), which never returns: start-up writes its few non-zero
+    // fields. A global would be constant-initialised and copied from flash whole (.data),
+    // buffers and all: about 1 KB more flash.
+    client_type session([] {
+        ferrule::modbus::client_config c;
+        c.format = format;
+        c.inter_frame_gap = ferrule::modbus::t35(format);
+        c.response_timeout = std::chrono::milliseconds(100);
+        c.retries = 2;
+        return c;
+    }());
     ferrule::poll_driver driver(uart, session);
     std::uint8_t unit = 1;
     std::uint16_t written = 0;

@@ -5,9 +5,9 @@
 // registers (FC 23) and the basic device identification (FC 43/14) — without blocking and
 // without heap. A failed transaction is counted and the list goes on.
 //
-// Its function set is every function code that ferrule's client and nanoMODBUS's both have
-// (FC 8 is ferrule's alone), so docs/PERFORMANCE.md compares the two clients' firmware size
-// on this program.
+// Its function set (common/modbus_ten_functions.hpp) is every function code that ferrule's
+// client and nanoMODBUS's both have, so docs/PERFORMANCE.md compares the two clients'
+// firmware size on this program.
 //
 // The byte_stream below is the only board-specific part; ferrule brings the protocol.
 #include <array>
@@ -18,6 +18,7 @@
 #include "ferrule/modbus/client.hpp"
 #include "ferrule/modbus/registers.hpp"
 
+#include "../common/modbus_ten_functions.hpp"
 #include "../common/stm32f4_uart.hpp"
 
 namespace {
@@ -25,24 +26,7 @@ namespace mb = ferrule::modbus;
 constexpr auto format = mb::default_format;
 constexpr std::uint8_t unit = 1;
 
-using client_type = mb::basic_client<
-    mb::link_mode::rtu,
-    mb::functions<mb::function::read_coils, mb::function::read_discrete_inputs,
-                  mb::function::read_holding_registers, mb::function::read_input_registers,
-                  mb::function::write_single_coil, mb::function::write_single_register,
-                  mb::function::write_multiple_coils, mb::function::write_multiple_registers,
-                  mb::function::read_write_multiple_registers,
-                  mb::function::encapsulated_interface>>;
-
 constinit board::uart_stream uart(format);
-constinit client_type session([] {
-    mb::client_config c;
-    c.format = format;
-    c.inter_frame_gap = mb::t35(format);
-    c.response_timeout = std::chrono::milliseconds(100);
-    c.retries = 1;
-    return c;
-}());
 
 // The process image this device exchanges with unit 1.
 volatile std::uint16_t coils_in = 0;     // FC 1: coils 0-15
@@ -148,6 +132,8 @@ void take(std::size_t i, const mb::response& r) {
 
 int main() {
     board::init(format);
+    // In main(), not global: see examples/firmware/modbus_client.
+    example::ten_function_client session(example::ten_function_config());
     ferrule::poll_driver driver(uart, session);
     std::size_t i = 0;
     for (;;) {

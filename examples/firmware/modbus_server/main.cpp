@@ -22,14 +22,6 @@ constexpr auto format = ferrule::modbus::default_format;
 using model = ferrule::modbus::memory_model<32, 32, 64, 32>;
 
 constinit board::uart_stream uart(format);
-constinit ferrule::modbus::server<model, ferrule::modbus::link_mode::rtu> session(
-    [] {
-        ferrule::modbus::server_config c;
-        c.units = {17};
-        c.format = format;
-        return c;
-    }(),
-    model({}, {"ferrule", "fw-server", "1.0"}));
 
 // The application's side of the tables.
 volatile std::uint32_t outputs = 0; // coil n -> bit n
@@ -39,6 +31,15 @@ volatile std::uint16_t analog[32] = {};
 
 int main() {
     board::init(format);
+    // In main(), not global: see examples/firmware/modbus_client.
+    ferrule::modbus::server<model, ferrule::modbus::link_mode::rtu> session(
+        [] {
+            ferrule::modbus::server_config c;
+            c.units = {17};
+            c.format = format;
+            return c;
+        }(),
+        model({}, {"ferrule", "fw-server", "1.0"}));
     std::array<std::uint8_t, 64> rx{};
     for (;;) {
         const ferrule::io_result r = uart.read_some(rx, uart.now());
