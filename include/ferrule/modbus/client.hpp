@@ -42,6 +42,7 @@
 #include <cstdint>
 #include <span>
 #include <system_error>
+#include <type_traits>
 
 #include "ferrule/core/bytes.hpp"
 #include "ferrule/core/checksum.hpp"
@@ -212,7 +213,10 @@ public:
             if (in.empty()) return;
         }
         heard_ = true;
-        rtu() ? feed_rtu(in) : feed_tcp(in);
+        if constexpr (Link == link_mode::rtu)
+            feed_rtu(in);
+        else
+            rtu() ? feed_rtu(in) : feed_tcp(in);
     }
 
     void on_transport_error(std::error_code ec) noexcept {
@@ -427,7 +431,12 @@ private:
     std::size_t tx_size_ = 0;
     std::span<const std::uint8_t> rx_{}; // the response PDU, in the decoder's buffer
     decoder rtu_{};
-    tcp_decoder tcp_{};
+    // An RTU-only client carries no MBAP decoder (276 bytes of RAM).
+    struct no_tcp_decoder {
+        constexpr void reset() noexcept {}
+    };
+    [[no_unique_address]] std::conditional_t<Link == link_mode::rtu, no_tcp_decoder, tcp_decoder>
+        tcp_{};
     time_point send_after_ = time_point::min();
     time_point tx_end_{};
     time_point last_rx_{};
