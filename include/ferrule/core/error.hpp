@@ -64,8 +64,8 @@ struct std::is_error_code_enum<ferrule::errc> : std::true_type {};
 namespace ferrule {
 
 // A std::error_code kept in a session or a result<T>. Unlike std::error_code it is a literal
-// type, so a session can be constinit (firmware runs no start-up code for it), and making an
-// empty one calls no category function. Empty holds "no error", whatever its category was.
+// type, so a session can be constant-initialised (constinit), and making an empty one calls
+// no category function. Empty holds "no error", whatever its category was.
 class stored_error {
 public:
     constexpr stored_error() noexcept = default;

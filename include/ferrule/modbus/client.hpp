@@ -44,8 +44,6 @@
 #include <system_error>
 #include <type_traits>
 
-#include "ferrule/core/bytes.hpp"
-#include "ferrule/core/checksum.hpp"
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
@@ -124,18 +122,8 @@ public:
         no_reply_ =
             broadcast || (r.function == function::diagnostics &&
                           r.value == static_cast<std::uint16_t>(diag_sub::force_listen_only));
-        if (rtu()) {
-            tx_[0] = unit;
-            tx_size_ = 1 + pdu_size_;
-            const std::uint16_t crc = crc16_modbus({tx_.data(), tx_size_});
-            tx_[tx_size_++] = static_cast<std::uint8_t>(crc);
-            tx_[tx_size_++] = static_cast<std::uint8_t>(crc >> 8);
-        } else {
-            tx_size_ = mbap_size + pdu_size_;
-            store_be16(&tx_[2], 0); // protocol id (TCP §3.1.3)
-            store_be16(&tx_[4], static_cast<std::uint16_t>(pdu_size_ + 1));
-            tx_[6] = unit;
-        }
+        // TCP: the header is written at each attempt, with its transaction id.
+        if (rtu()) tx_size_ = seal_rtu(unit, tx_.data(), pdu_size_);
         attempts_ = 0;
         error_ = {};
         response_ = {};
@@ -270,10 +258,7 @@ private:
 
     session_action send(time_point now) noexcept {
         if (++attempts_ > 1) ++stats_.resends;
-        if (!rtu()) {
-            ++transaction_;
-            store_be16(&tx_[0], transaction_);
-        }
+        if (!rtu()) tx_size_ = seal_tcp(++transaction_, unit_, tx_.data(), pdu_size_);
         tx_end_ = rtu() ? now + cfg_.format.chars_time(tx_size_) : now;
         last_rx_ = tx_end_;
         rtu_.reset();

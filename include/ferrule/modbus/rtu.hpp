@@ -23,17 +23,24 @@
 
 namespace ferrule::modbus {
 
+// Completes an ADU whose PDU of `pdu_size` bytes is already in place at adu[1]: writes the
+// address and the CRC; returns the ADU's size. adu must hold pdu_size + 3 bytes.
+inline std::size_t seal_rtu(std::uint8_t address, std::uint8_t* adu,
+                            std::size_t pdu_size) noexcept {
+    adu[0] = address;
+    const std::size_t n = pdu_size + 1;
+    const std::uint16_t crc = crc16_modbus({adu, n});
+    adu[n] = static_cast<std::uint8_t>(crc);
+    adu[n + 1] = static_cast<std::uint8_t>(crc >> 8);
+    return n + 2;
+}
+
 inline result<std::size_t> encode_rtu(std::uint8_t address, std::span<const std::uint8_t> pdu,
                                       std::span<std::uint8_t> out) noexcept {
     if (pdu.empty() || pdu.size() > max_pdu) return errc::invalid_argument;
-    const std::size_t n = pdu.size() + 3;
-    if (out.size() < n) return errc::buffer_too_small;
-    out[0] = address;
+    if (out.size() < pdu.size() + 3) return errc::buffer_too_small;
     for (std::size_t i = 0; i < pdu.size(); ++i) out[1 + i] = pdu[i];
-    const std::uint16_t crc = crc16_modbus(out.first(n - 2));
-    out[n - 2] = static_cast<std::uint8_t>(crc);
-    out[n - 1] = static_cast<std::uint8_t>(crc >> 8);
-    return n;
+    return seal_rtu(address, out.data(), pdu.size());
 }
 
 // Splits a byte stream into RTU frames. Feed it with

@@ -22,18 +22,24 @@
 
 namespace ferrule::modbus {
 
+// Writes the MBAP header in front of a PDU of `pdu_size` bytes already in place at
+// adu[mbap_size]; returns the ADU's size.
+inline std::size_t seal_tcp(std::uint16_t transaction, std::uint8_t unit, std::uint8_t* adu,
+                            std::size_t pdu_size) noexcept {
+    store_be16(&adu[0], transaction);
+    store_be16(&adu[2], 0); // protocol id: Modbus
+    store_be16(&adu[4], static_cast<std::uint16_t>(pdu_size + 1));
+    adu[6] = unit;
+    return mbap_size + pdu_size;
+}
+
 inline result<std::size_t> encode_tcp(std::uint16_t transaction, std::uint8_t unit,
                                       std::span<const std::uint8_t> pdu,
                                       std::span<std::uint8_t> out) noexcept {
     if (pdu.empty() || pdu.size() > max_pdu) return errc::invalid_argument;
-    const std::size_t n = mbap_size + pdu.size();
-    if (out.size() < n) return errc::buffer_too_small;
-    store_be16(&out[0], transaction);
-    store_be16(&out[2], 0);
-    store_be16(&out[4], static_cast<std::uint16_t>(pdu.size() + 1));
-    out[6] = unit;
+    if (out.size() < mbap_size + pdu.size()) return errc::buffer_too_small;
     for (std::size_t i = 0; i < pdu.size(); ++i) out[mbap_size + i] = pdu[i];
-    return n;
+    return seal_tcp(transaction, unit, out.data(), pdu.size());
 }
 
 // Splits a TCP byte stream into ADUs; the step API of rtu_decoder. A header with a protocol
