@@ -11,9 +11,9 @@
 //     inter_byte_timeout (RTU, 0 = off) ends it sooner: silence inside a frame longer than
 //     that is errc::frame_gap (SL §2.5.1.1 allows 1.5 characters; USB adapters and ptys
 //     merge and split bytes, hence off by default)
-//   * RTU responses are framed by length (rtu_decoder): bytes before the response that start
-//     no frame are skipped; after a CRC error or such garbage the attempt ends once the line
-//     has been silent for t3.5 (the frame is over, SL §2.5.1.1; at the latest at the
+//   * RTU responses are framed by length (expected_response_length()): bytes before the
+//     response that start no frame are skipped; after a CRC error or such garbage the attempt ends
+//     once the line has been silent for t3.5 (the frame is over, SL §2.5.1.1; at the latest at the
 //     deadline + the wire time of 256 bytes) unless a frame is found in what was received
 //   * the response must come from the unit asked (else errc::unexpected_address) and answer
 //     the request: function code, byte count, echo (parse_response()). TCP: every attempt
@@ -98,7 +98,8 @@ public:
 
     // Starts a transaction with `unit`. RTU: 1…247, or 0 (broadcast) for FC 5, 6, 15, 16.
     // TCP: any unit id. invalid_argument for a request encode_request() refuses.
-    std::error_code start(std::uint8_t unit, const request& r) noexcept {
+    // Out of line: an application starts requests in many places, each would carry a copy.
+    [[gnu::noinline]] std::error_code start(std::uint8_t unit, const request& r) noexcept {
         if (busy()) return errc::busy;
         if (rtu() && unit > max_unit_address) return errc::invalid_argument;
         const bool broadcast = rtu() && unit == broadcast_address;
@@ -127,7 +128,7 @@ public:
         attempts_ = 0;
         error_ = {};
         response_ = {};
-        rx_ = {};
+        rx_pdu_ = {};
         ++stats_.transactions;
         state_ = state::pending_send;
         return {};
@@ -140,32 +141,28 @@ public:
         case state::pending_send:
             if (before(now, send_after_)) return session_action::wait_until(send_after_);
             return send(now);
-        case state::no_reply: {
-            const time_point quiet = tx_end_ + cfg_.turnaround;
-            if (before(now, quiet)) return session_action::wait_until(quiet);
-            finish(errc::no_response_expected);
-            return session_action::done();
-        }
-        case state::awaiting: {
-            const time_point deadline = deadline_now();
-            if (before(now, deadline)) return session_action::wait_until(deadline);
-            expire(deadline);
+        case state::awaiting:
+        case state::no_reply:
+            if (before(now, deadline_)) return session_action::wait_until(deadline_);
+            if (state_ == state::no_reply) {
+                finish(errc::no_response_expected);
+                return session_action::done();
+            }
+            expire();
             return next(now);
-        }
         }
         return session_action::idle();
     }
 
     void on_receive(std::span<const std::uint8_t> in, time_point now) noexcept {
         if (in.empty()) return;
+        const bool awaiting = state_ == state::awaiting;
         if (rtu()) {
             // An answer before our request's computed wire end: the link is faster than the
             // serial format says (a pty, a TCP bridge), so the request's hold ends now.
-            if (state_ == state::awaiting && before(now, tx_end_) && echo_pos_ == tx_size_)
-                send_after_ = now;
+            if (awaiting && before(now, tx_end_) && echo_pos_ == tx_size_) send_after_ = now;
             hold(now, cfg_.inter_frame_gap); // the line is busy until now
-            if (state_ == state::awaiting && cfg_.inter_byte_timeout.count() > 0 &&
-                rtu_.in_frame() &&
+            if (awaiting && cfg_.inter_byte_timeout.count() > 0 && rx_size_ > 0 &&
                 before(last_rx_ + cfg_.inter_byte_timeout,
                        now - cfg_.format.chars_time(in.size()))) {
                 last_rx_ = now;
@@ -175,36 +172,9 @@ public:
             }
         }
         last_rx_ = now;
-        if (state_ != state::awaiting) {
-            stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
-            return;
-        }
-        if (echo_pos_ < tx_size_) {
-            while (echo_pos_ < tx_size_ && !in.empty() && in[0] == tx_[echo_pos_]) {
-                ++echo_pos_;
-                in = in.subspan(1);
-            }
-            if (echo_pos_ == tx_size_) {
-                stats_.echo_bytes += static_cast<std::uint32_t>(tx_size_);
-            } else if (!in.empty()) {
-                // Not our echo: the bytes held back (address and function code match the
-                // request's) begin the response.
-                const std::size_t held = echo_pos_;
-                echo_pos_ = tx_size_;
-                heard_ = true;
-                feed_rtu({tx_.data(), held});
-                if (state_ != state::awaiting) {
-                    stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
-                    return;
-                }
-            }
-            if (in.empty()) return;
-        }
-        heard_ = true;
-        if constexpr (Link == link_mode::rtu)
-            feed_rtu(in);
-        else
-            rtu() ? feed_rtu(in) : feed_tcp(in);
+        std::size_t used = 0;
+        if (awaiting) used = rtu() ? feed_rtu(in) : feed_tcp(in);
+        stats_.stale_bytes += static_cast<std::uint32_t>(in.size() - used);
     }
 
     void on_transport_error(std::error_code ec) noexcept {
@@ -222,7 +192,7 @@ public:
     const modbus::response& response() const noexcept { return response_; }
     // The PDU of the last response that answered the request (a normal or an exception
     // response), as received; empty when none did. Valid until the next start().
-    std::span<const std::uint8_t> response_pdu() const noexcept { return rx_; }
+    std::span<const std::uint8_t> response_pdu() const noexcept { return rx_pdu_; }
     // The request PDU and the ADU as last sent.
     std::span<const std::uint8_t> pdu() const noexcept {
         return {tx_.data() + pdu_offset(), pdu_size_};
@@ -254,14 +224,13 @@ private:
     constexpr std::size_t pdu_offset() const noexcept { return rtu() ? 1 : mbap_size; }
 
     enum class state : std::uint8_t { idle, pending_send, awaiting, no_reply, done };
-    using decoder = basic_rtu_decoder<Fs, rtu_frames::responses>; // responses of Fs only
 
     session_action send(time_point now) noexcept {
         if (++attempts_ > 1) ++stats_.resends;
         if (!rtu()) tx_size_ = seal_tcp(++transaction_, unit_, tx_.data(), pdu_size_);
         tx_end_ = rtu() ? now + cfg_.format.chars_time(tx_size_) : now;
         last_rx_ = tx_end_;
-        rtu_.reset();
+        rx_size_ = 0;
         tcp_.reset();
         heard_ = false;
         decode_error_ = errc{};
@@ -270,47 +239,45 @@ private:
         if (no_reply_) {
             ++stats_.broadcasts;
             if (quiet.count() < cfg_.turnaround.count()) quiet = cfg_.turnaround;
+            deadline_ = tx_end_ + cfg_.turnaround;
             state_ = state::no_reply;
         } else {
             state_ = state::awaiting;
+            rearm();
         }
         hold(tx_end_, quiet);
         return session_action::send({tx_.data(), tx_size_}, cfg_.discard_stale_input);
     }
 
-    time_point deadline_now() const noexcept {
-        const time_point base = tx_end_ + cfg_.response_timeout;
-        if (!rtu() || (!garbled() && !rtu_.in_frame())) return base;
-        // Bytes are arriving: they may go on until the wire time of a whole ADU past base.
-        const time_point late = base + adu_time_;
+    // The attempt's deadline, after each change of what has been received: the end of the
+    // request + response_timeout; for a response that has begun, up to the wire time of a
+    // whole ADU later, or sooner: t3.5 of silence after garbage or a bad CRC (SL §2.5.1.1),
+    // the inter-byte timeout inside a frame.
+    void rearm() noexcept {
+        deadline_ = tx_end_ + cfg_.response_timeout;
+        gap_ = false;
+        if (!rtu() || (!garbled() && rx_size_ == 0)) return;
+        const time_point late = deadline_ + adu_time_;
+        deadline_ = late;
         if (garbled()) {
-            // Garbage or a bad CRC: the attempt ends when the line has been silent for t3.5
-            // (SL §2.5.1.1), that is when a byte begun by then would have arrived.
-            const time_point silent = last_rx_ + silence_;
-            return earliest(silent, late);
+            // When the silence has lasted t3.5, a byte begun by then would have arrived.
+            deadline_ = earliest(last_rx_ + silence_, late);
+        } else if (cfg_.inter_byte_timeout.count() > 0) {
+            const time_point gap = last_rx_ + char_time_ + cfg_.inter_byte_timeout;
+            gap_ = !before(late, gap);
+            if (gap_) deadline_ = gap;
         }
-        if (cfg_.inter_byte_timeout == duration::zero()) return late;
-        const time_point gap = last_rx_ + char_time_ + cfg_.inter_byte_timeout;
-        return earliest(gap, late);
     }
 
-    void expire(time_point deadline) noexcept {
-        const duration ibt = cfg_.inter_byte_timeout;
-        const bool gap = rtu() && !garbled() && rtu_.in_frame() && ibt.count() > 0 &&
-                         deadline == last_rx_ + char_time_ + ibt;
-        if (rtu() && (garbled() || rtu_.in_frame())) {
-            // The silence ends what was received: a frame in it still counts.
-            typename decoder::step s;
-            do {
-                s = rtu_.finish();
-                if (s.what == decoder::status::error) note(s.ec);
-                if (s.what == decoder::status::frame) {
-                    evaluate(rtu_.address(), rtu_.pdu());
-                    if (state_ != state::awaiting) return;
-                }
-            } while (s.what != decoder::status::need_more);
+    void expire() noexcept {
+        // The silence ends what was received: a frame behind the bytes that start none still
+        // counts.
+        while (rtu() && rx_size_ > 0) {
+            drop(errc::malformed);
+            scan();
+            if (state_ != state::awaiting) return;
         }
-        if (gap)
+        if (gap_)
             fail(errc::frame_gap);
         else if (garbled())
             fail(decode_error_);
@@ -318,31 +285,83 @@ private:
             fail(heard_ ? errc::malformed : errc::timeout);
     }
 
-    void feed_rtu(std::span<const std::uint8_t> in) noexcept {
-        typename decoder::step s;
-        do {
-            s = rtu_.feed(in);
-            in = in.subspan(s.consumed);
-            if (s.what == decoder::status::error) note(s.ec);
-            if (s.what == decoder::status::frame) evaluate(rtu_.address(), rtu_.pdu());
-        } while (s.what != decoder::status::need_more && state_ == state::awaiting);
-        stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
+    // Takes bytes of the response until it is evaluated; returns how many.
+    std::size_t feed_rtu(std::span<const std::uint8_t> in) noexcept {
+        std::size_t used = 0;
+        for (; used < in.size() && state_ == state::awaiting; ++used) {
+            if (echo_pos_ < tx_size_) {
+                if (in[used] == tx_[echo_pos_]) {
+                    if (++echo_pos_ == tx_size_)
+                        stats_.echo_bytes += static_cast<std::uint32_t>(tx_size_);
+                    continue;
+                }
+                // Not our echo: the bytes held back (address and function code match the
+                // request's) begin the response.
+                const std::size_t held = echo_pos_;
+                echo_pos_ = tx_size_;
+                for (std::size_t i = 0; i < held && state_ == state::awaiting; ++i) push(tx_[i]);
+                if (state_ != state::awaiting) break;
+            }
+            heard_ = true;
+            push(in[used]);
+        }
+        if (state_ == state::awaiting) rearm();
+        return used;
     }
 
-    void feed_tcp(std::span<const std::uint8_t> in) noexcept {
-        tcp_decoder::step s;
-        do {
-            s = tcp_.feed(in);
-            in = in.subspan(s.consumed);
-            if (s.what == tcp_decoder::status::error) note(s.ec);
-            if (s.what != tcp_decoder::status::frame) continue;
-            if (tcp_.transaction() != transaction_) {
-                stats_.stale_bytes += static_cast<std::uint32_t>(tcp_.adu().size());
+    // RTU framing by the length the function code predicts (expected_response_length): a
+    // client frames only responses to the functions it can send, and exception responses.
+    void push(std::uint8_t b) noexcept {
+        if (rx_size_ == rx_.size()) drop(errc::malformed);
+        rx_[rx_size_++] = b;
+        scan();
+    }
+
+    // Looks for a frame at the front of what was received; drops a byte from the front for
+    // each that starts none, or whose frame fails its CRC.
+    void scan() noexcept {
+        while (rx_size_ >= 2) {
+            const std::span<const std::uint8_t> pdu(rx_.data() + 1, rx_size_ - 1);
+            const std::size_t n = expected_response_length<Fs, false>(pdu);
+            if (n == 0) return;
+            if (n == no_frame) {
+                drop(errc::malformed);
                 continue;
             }
-            evaluate(tcp_.unit(), tcp_.pdu());
-        } while (s.what != tcp_decoder::status::need_more && state_ == state::awaiting);
-        stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
+            if (rx_size_ < n + 3) return;
+            if (crc16_modbus({rx_.data(), n + 3}) == 0) {
+                evaluate(rx_[0], pdu.first(n));
+                return;
+            }
+            drop(errc::bad_checksum);
+        }
+    }
+
+    void drop(errc why) noexcept {
+        if (!garbled()) decode_error_ = why; // the attempt's first decoding error
+        for (std::size_t i = 1; i < rx_size_; ++i) rx_[i - 1] = rx_[i];
+        --rx_size_;
+    }
+
+    std::size_t feed_tcp(std::span<const std::uint8_t> in) noexcept {
+        std::size_t used = 0;
+        if constexpr (Link != link_mode::rtu) {
+            heard_ = true;
+            tcp_decoder::step s;
+            do {
+                s = tcp_.feed(in.subspan(used));
+                used += s.consumed;
+                if (s.what == tcp_decoder::status::error && !garbled())
+                    decode_error_ = static_cast<errc>(s.ec.value()); // the decoder reports errc
+                if (s.what != tcp_decoder::status::frame) continue;
+                if (tcp_.transaction() != transaction_) {
+                    stats_.stale_bytes += static_cast<std::uint32_t>(tcp_.adu().size());
+                    continue;
+                }
+                evaluate(tcp_.unit(), tcp_.pdu());
+            } while (s.what != tcp_decoder::status::need_more && state_ == state::awaiting);
+        }
+        return used;
     }
 
     void evaluate(std::uint8_t unit, std::span<const std::uint8_t> pdu) noexcept {
@@ -350,22 +369,21 @@ private:
             fail(errc::unexpected_address);
             return;
         }
-        // The PDU stays in the decoder's buffer: nothing more is fed to it until the next
+        // The PDU stays in the receive buffer: nothing more is taken into it until the next
         // attempt, and none follows a response that answers.
-        if (const std::error_code ec = parse_response<Fs>(sent_, pdu, response_)) {
-            response_ = {};
-            if (ec.category() != device_category()) {
-                fail(static_cast<errc>(ec.value())); // parse_response's own are ferrule::errc
-                return;
-            }
-            // An exception response is the server's answer: it is not resent.
-            rx_ = pdu;
-            ++stats_.exceptions;
-            ++stats_.failed;
-            finish(ec);
+        // response_ is written only by a response that answers.
+        if (const errc e = detail::check_response<Fs>(sent_, pdu, response_); e != errc{}) {
+            fail(e);
             return;
         }
-        rx_ = pdu;
+        rx_pdu_ = pdu;
+        if (pdu[0] & exception_flag) {
+            // An exception response is the server's answer: it is not resent.
+            ++stats_.exceptions;
+            ++stats_.failed;
+            finish(std::error_code(pdu[1], device_category()));
+            return;
+        }
         ++stats_.succeeded;
         finish({});
     }
@@ -388,10 +406,6 @@ private:
     }
 
     bool garbled() const noexcept { return decode_error_ != errc{}; }
-    // Keeps the attempt's first decoding error (the decoders report ferrule::errc).
-    void note(const stored_error& ec) noexcept {
-        if (!garbled()) decode_error_ = static_cast<errc>(ec.value());
-    }
 
     void finish(stored_error ec) noexcept {
         error_ = ec;
@@ -414,8 +428,9 @@ private:
     std::size_t pdu_size_ = 0;
     std::array<std::uint8_t, max_tcp_adu> tx_{};
     std::size_t tx_size_ = 0;
-    std::span<const std::uint8_t> rx_{}; // the response PDU, in the decoder's buffer
-    decoder rtu_{};
+    std::span<const std::uint8_t> rx_pdu_{};     // the response PDU as received
+    std::array<std::uint8_t, max_rtu_adu> rx_{}; // RTU: bytes of the response so far
+    std::size_t rx_size_ = 0;
     // An RTU-only client carries no MBAP decoder (276 bytes of RAM).
     struct no_tcp_decoder {
         constexpr void reset() noexcept {}
@@ -425,6 +440,7 @@ private:
     time_point send_after_ = time_point::min();
     time_point tx_end_{};
     time_point last_rx_{};
+    time_point deadline_{}; // of the attempt (rearm()) or of the turnaround
     stored_error error_{};
     errc decode_error_{};      // garbage or a bad CRC in this attempt (the decoders report errc)
     std::size_t echo_pos_ = 0; // bytes of our echo matched so far
@@ -432,6 +448,7 @@ private:
     std::uint16_t transaction_ = 0;
     std::uint8_t unit_ = 0;
     bool no_reply_ = false;
+    bool gap_ = false;   // deadline_ is the inter-byte timeout's
     bool heard_ = false; // bytes other than our echo since the request
 };
 

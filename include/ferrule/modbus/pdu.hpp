@@ -400,36 +400,31 @@ constexpr bool next_device_id_object(std::span<const std::uint8_t>& objects,
     return true;
 }
 
-// The response PDU `pdu` to `sent`. An exception response gives the server's code as a
-// modbus::device_category() error; another function code errc::unexpected_type; a wrong
-// length, byte count or echo errc::malformed; a request of a function not in `Fs`
-// errc::invalid_argument.
-// This form fills `r` and returns the error (empty on success; `r` is then not to be used),
-// so that a session parses into its own response without a copy.
-template <function_set Fs = all_functions>
-std::error_code parse_response(const request& sent, std::span<const std::uint8_t> pdu,
-                               response& r) noexcept {
-    using detail::one_of;
+namespace detail {
+// parse_response() without error categories, for the client session: errc{} when `pdu`
+// answers `sent`, as a normal response (then `r` is filled) or as a well-formed exception
+// response (pdu[0] carries exception_flag, pdu[1] the code).
+template <function_set Fs>
+constexpr errc check_response(const request& sent, std::span<const std::uint8_t> pdu,
+                              response& r) noexcept {
     if (pdu.empty()) return errc::malformed;
     const function f = sent.function;
     const auto fc = static_cast<std::uint8_t>(f);
-    if (pdu[0] == (fc | exception_flag)) {
-        if (pdu.size() != 2 || pdu[1] == 0) return errc::malformed;
-        return std::error_code(pdu[1], device_category());
-    }
+    if (pdu[0] == (fc | exception_flag))
+        return pdu.size() != 2 || pdu[1] == 0 ? errc::malformed : errc{};
     if (pdu[0] != fc) return errc::unexpected_type;
-    r = response{};
-    r.function = f;
-    r.address = sent.address;
-    r.quantity = sent.quantity;
+    // `r` is written once the response has passed its checks.
     if (one_of<Fs, function::read_coils, function::read_discrete_inputs,
                function::read_holding_registers, function::read_input_registers,
                function::read_write_multiple_registers>(f)) {
         const bool bits = f == function::read_coils || f == function::read_discrete_inputs;
         const std::size_t bytes = bits ? packed_size(sent.quantity) : 2u * sent.quantity;
         if (pdu.size() < 2 || pdu[1] != bytes || pdu.size() != 2 + bytes) return errc::malformed;
-        r.data = pdu.subspan(2);
-        return {};
+        r = {.function = f,
+             .data = pdu.subspan(2),
+             .address = sent.address,
+             .quantity = sent.quantity};
+        return errc{};
     }
     if (one_of<Fs, function::write_single_coil, function::write_single_register,
                function::write_multiple_coils, function::write_multiple_registers>(f)) {
@@ -438,41 +433,56 @@ std::error_code parse_response(const request& sent, std::span<const std::uint8_t
         const bool single =
             f == function::write_single_coil || f == function::write_single_register;
         if (second != (single ? sent.value : sent.quantity)) return errc::malformed;
-        r.value = single ? second : std::uint16_t{0};
-        r.quantity = single ? std::uint16_t{0} : second;
-        return {};
+        r = {.function = f,
+             .address = sent.address,
+             .value = single ? second : std::uint16_t{0},
+             .quantity = single ? std::uint16_t{0} : second};
+        return errc{};
     }
     if (one_of<Fs, function::diagnostics>(f)) {
         // Echo of the sub-function; Return Query Data echoes the data too (AP §6.8.1).
         if (pdu.size() != 5 || load_be16(&pdu[1]) != sent.value) return errc::malformed;
-        r.value = sent.value;
-        r.address = 0;
-        r.quantity = 0;
-        r.data = pdu.subspan(3, 2);
         if (sent.value == static_cast<std::uint16_t>(diag_sub::return_query_data) &&
             (sent.data.size() != 2 || sent.data[0] != pdu[3] || sent.data[1] != pdu[4]))
             return errc::malformed;
-        return {};
+        r = {.function = f, .data = pdu.subspan(3, 2), .value = sent.value};
+        return errc{};
     }
     if (one_of<Fs, function::encapsulated_interface>(f)) {
         // 2B 0E code conformity more-follows(00/FF) next-object count objects… (AP §6.21)
         if (pdu.size() < 7 || pdu[1] != mei_read_device_id || pdu[2] != sent.read_device_id_code)
             return errc::malformed;
         if (pdu[4] != 0x00 && pdu[4] != 0xFF) return errc::malformed;
-        r.address = 0;
-        r.conformity = pdu[3];
-        r.more_follows = pdu[4] == 0xFF;
-        r.next_object_id = pdu[5];
-        r.quantity = pdu[6];
-        r.data = pdu.subspan(7);
-        std::span<const std::uint8_t> rest = r.data;
+        std::span<const std::uint8_t> rest = pdu.subspan(7);
         device_id_object o;
         for (unsigned i = 0; i < pdu[6]; ++i)
             if (!next_device_id_object(rest, o)) return errc::malformed;
         if (!rest.empty()) return errc::malformed;
-        return {};
+        r = {.function = f,
+             .data = pdu.subspan(7),
+             .quantity = pdu[6],
+             .conformity = pdu[3],
+             .more_follows = pdu[4] == 0xFF,
+             .next_object_id = pdu[5]};
+        return errc{};
     }
     return errc::invalid_argument;
+}
+
+} // namespace detail
+
+// The response PDU `pdu` to `sent`. An exception response gives the server's code as a
+// modbus::device_category() error; another function code errc::unexpected_type; a wrong
+// length, byte count or echo errc::malformed; a request of a function not in `Fs`
+// errc::invalid_argument.
+// This form fills `r` and returns the error (empty on success; `r` is then not to be used).
+template <function_set Fs = all_functions>
+std::error_code parse_response(const request& sent, std::span<const std::uint8_t> pdu,
+                               response& r) noexcept {
+    const errc e = detail::check_response<Fs>(sent, pdu, r);
+    if (e != errc{}) return e;
+    if (pdu[0] & exception_flag) return std::error_code(pdu[1], device_category());
+    return {};
 }
 
 template <function_set Fs = all_functions>
