@@ -64,25 +64,25 @@ public:
 
     session_action::kind step() {
         const session_action a = session_.next(stream_.now());
+        std::error_code ec;
         switch (a.what) {
-        case session_action::kind::send: {
+        case session_action::kind::send:
             if (a.discard_input) detail::discard(stream_);
-            const io_result w = stream_.write(a.bytes);
-            if (w.ec) session_.on_transport_error(w.ec);
+            ec = stream_.write(a.bytes).ec;
             break;
-        }
         case session_action::kind::wait: {
             const io_result r = stream_.read_some(buf_, stream_.now());
             if (r.bytes > 0)
                 session_.on_receive(std::span<const std::uint8_t>(buf_.data(), r.bytes),
                                     stream_.now());
-            else if (r.ec && r.ec != make_error_code(errc::timeout))
-                session_.on_transport_error(r.ec);
+            else if (r.ec != make_error_code(errc::timeout))
+                ec = r.ec;
             break;
         }
         case session_action::kind::idle:
         case session_action::kind::done: break;
         }
+        if (ec) session_.on_transport_error(ec);
         return a.what;
     }
 

@@ -71,6 +71,11 @@ public:
     constexpr stored_error() noexcept = default;
     stored_error(std::error_code ec) noexcept
         : value_(ec.value()), category_(ec ? &ec.category() : nullptr) {}
+    // A non-zero value of `category` (no test for "no error" at run time).
+    stored_error(int value, const std::error_category& category) noexcept
+        : value_(value), category_(&category) {}
+    stored_error(errc e) noexcept
+        : value_(static_cast<int>(e)), category_(e == errc{} ? nullptr : &errc_category()) {}
     template <class E>
     requires std::is_error_code_enum_v<E> stored_error(E e)
     noexcept : stored_error(make_error_code(e)) {}

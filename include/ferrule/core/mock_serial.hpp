@@ -150,7 +150,9 @@ public:
     std::span<const wire_byte> wire() const noexcept { return {log_.data(), log_size_}; }
     std::size_t pending() const noexcept { return rx_size_; }
     // When the next byte towards the session arrives (never: none is on its way).
-    time_point next_arrival() const noexcept { return rx_size_ > 0 ? rx_[rx_head_].arrival : never; }
+    time_point next_arrival() const noexcept {
+        return rx_size_ > 0 ? rx_[rx_head_].arrival : never;
+    }
     std::size_t discarded() const noexcept { return discarded_; }
     std::size_t collisions() const noexcept { return collisions_; }
     std::size_t writes() const noexcept { return writes_; }

@@ -18,7 +18,7 @@ public:
     result(std::error_code ec) noexcept : ec_(ec) {}
     template <class E>
     requires std::is_error_code_enum_v<E> result(E e)
-    noexcept : ec_(make_error_code(e)) {}
+    noexcept : ec_(e) {}
 
     constexpr bool has_value() const noexcept { return !ec_; }
     constexpr explicit operator bool() const noexcept { return !ec_; }

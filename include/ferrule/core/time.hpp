@@ -32,5 +32,9 @@ constexpr bool before(time_point a, time_point b) noexcept {
 constexpr time_point earliest(time_point a, time_point b) noexcept {
     return before(b, a) ? b : a;
 }
+// The later of a and b.
+constexpr time_point latest(time_point a, time_point b) noexcept {
+    return before(a, b) ? b : a;
+}
 
 } // namespace ferrule

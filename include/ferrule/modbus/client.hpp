@@ -138,9 +138,14 @@ public:
         switch (state_) {
         case state::idle: return session_action::idle();
         case state::done: return session_action::done();
-        case state::pending_send:
-            if (before(now, send_after_)) return session_action::wait_until(send_after_);
+        case state::pending_send: {
+            // The line quiet since our last request (its gap or turnaround) and since the
+            // last byte received (its gap).
+            const time_point t =
+                latest(quiet_until_, last_rx_ + (rtu() ? cfg_.inter_frame_gap : duration{}));
+            if (before(now, t)) return session_action::wait_until(t);
             return send(now);
+        }
         case state::awaiting:
         case state::no_reply:
             if (before(now, deadline_)) return session_action::wait_until(deadline_);
@@ -160,8 +165,7 @@ public:
         if (rtu()) {
             // An answer before our request's computed wire end: the link is faster than the
             // serial format says (a pty, a TCP bridge), so the request's hold ends now.
-            if (awaiting && before(now, tx_end_) && echo_pos_ == tx_size_) send_after_ = now;
-            hold(now, cfg_.inter_frame_gap); // the line is busy until now
+            if (awaiting && before(now, tx_end_) && echo_pos_ == tx_size_) quiet_until_ = now;
             if (awaiting && cfg_.inter_byte_timeout.count() > 0 && rx_size_ > 0 &&
                 before(last_rx_ + cfg_.inter_byte_timeout,
                        now - cfg_.format.chars_time(in.size()))) {
@@ -201,10 +205,7 @@ public:
     std::uint8_t unit() const noexcept { return unit_; }
     std::uint16_t transaction() const noexcept { return transaction_; } // TCP: last id sent
     unsigned attempts() const noexcept { return attempts_; }
-    bool busy() const noexcept {
-        return state_ == state::pending_send || state_ == state::awaiting ||
-               state_ == state::no_reply;
-    }
+    bool busy() const noexcept { return state_ >= state::pending_send; }
     // Done -> idle once the result has been read (a new start does this too).
     void clear() noexcept {
         if (state_ == state::done) state_ = state::idle;
@@ -223,7 +224,8 @@ private:
 
     constexpr std::size_t pdu_offset() const noexcept { return rtu() ? 1 : mbap_size; }
 
-    enum class state : std::uint8_t { idle, pending_send, awaiting, no_reply, done };
+    // The busy states last.
+    enum class state : std::uint8_t { idle, done, pending_send, awaiting, no_reply };
 
     session_action send(time_point now) noexcept {
         if (++attempts_ > 1) ++stats_.resends;
@@ -245,7 +247,7 @@ private:
             state_ = state::awaiting;
             rearm();
         }
-        hold(tx_end_, quiet);
+        quiet_until_ = tx_end_ + quiet;
         return session_action::send({tx_.data(), tx_size_}, cfg_.discard_stale_input);
     }
 
@@ -253,7 +255,7 @@ private:
     // request + response_timeout; for a response that has begun, up to the wire time of a
     // whole ADU later, or sooner: t3.5 of silence after garbage or a bad CRC (SL §2.5.1.1),
     // the inter-byte timeout inside a frame.
-    void rearm() noexcept {
+    [[gnu::noinline]] void rearm() noexcept {
         deadline_ = tx_end_ + cfg_.response_timeout;
         gap_ = false;
         if (!rtu() || (!garbled() && rx_size_ == 0)) return;
@@ -412,11 +414,6 @@ private:
         state_ = state::done;
     }
 
-    // No request before t + quiet.
-    void hold(time_point t, duration quiet) noexcept {
-        if (before(send_after_, t + quiet)) send_after_ = t + quiet;
-    }
-
     client_config cfg_;
     duration char_time_; // one character on the wire
     duration silence_;   // t3.5 and the character that would end it
@@ -437,10 +434,10 @@ private:
     };
     [[no_unique_address]] std::conditional_t<Link == link_mode::rtu, no_tcp_decoder, tcp_decoder>
         tcp_{};
-    time_point send_after_ = time_point::min();
+    time_point quiet_until_ = time_point::min();
     time_point tx_end_{};
-    time_point last_rx_{};
-    time_point deadline_{}; // of the attempt (rearm()) or of the turnaround
+    time_point last_rx_ = time_point::min(); // or the end of our request
+    time_point deadline_{};                  // of the attempt (rearm()) or of the turnaround
     stored_error error_{};
     errc decode_error_{};      // garbage or a bad CRC in this attempt (the decoders report errc)
     std::size_t echo_pos_ = 0; // bytes of our echo matched so far
