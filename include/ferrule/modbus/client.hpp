@@ -383,7 +383,7 @@ private:
             // An exception response is the server's answer: it is not resent.
             ++stats_.exceptions;
             ++stats_.failed;
-            finish(std::error_code(pdu[1], device_category()));
+            finish(stored_error(pdu[1], device_category()));
             return;
         }
         ++stats_.succeeded;
