@@ -202,10 +202,8 @@ public:
         if (pdu.empty() || pdu[0] == 0 || pdu[0] >= exception_flag || out.size() < max_pdu)
             return 0;
         const auto fc = static_cast<function>(pdu[0]);
-        if (const std::uint8_t e = request_exception(pdu)) return exception(fc, e, out);
-        const auto req = parse_request(pdu);
-        if (!req) return exception(fc, code_of(exception_code::server_device_failure), out);
-        const request& r = *req;
+        request r;
+        if (const std::uint8_t e = detail::decode_request(pdu, r)) return exception(fc, e, out);
         switch (r.function) {
         case function::read_coils:
         case function::read_discrete_inputs: {
@@ -346,15 +344,15 @@ private:
             return;
         }
         ++stats_.requests;
-        std::size_t n = execute(rtu_.pdu(), pdu_);
+        // The reply is built in place, behind its address.
+        std::size_t n = execute(rtu_.pdu(), {tx_.data() + 1, max_pdu});
         if (listening_only) n = 0; // the restart that ends the mode is not answered either
         if (unit == broadcast_address || n == 0) {
             if (unit == broadcast_address) ++stats_.broadcasts;
             ++counters_.server_no_response;
             return;
         }
-        const auto size = encode_rtu(unit, std::span<const std::uint8_t>(pdu_.data(), n), tx_);
-        queue(size.value_or(0), n, end + t35());
+        queue(seal_rtu(unit, tx_.data(), n), end + t35());
     }
 
     // --- TCP -------------------------------------------------------------------------------
@@ -367,10 +365,9 @@ private:
                 ++counters_.bus_message;
                 ++counters_.server_message;
                 ++stats_.requests;
-                const std::size_t n = execute(tcp_.pdu(), pdu_);
-                const auto size = encode_tcp(tcp_.transaction(), tcp_.unit(),
-                                             std::span<const std::uint8_t>(pdu_.data(), n), tx_);
-                queue(size.value_or(0), n, end);
+                // The reply is built in place, behind its MBAP header.
+                const std::size_t n = execute(tcp_.pdu(), {tx_.data() + mbap_size, max_pdu});
+                if (n > 0) queue(seal_tcp(tcp_.transaction(), tcp_.unit(), tx_.data(), n), end);
             }
             if (s.what == tcp_decoder::status::need_more) return;
         }
@@ -397,17 +394,20 @@ private:
     }
 
     // --- both ------------------------------------------------------------------------------
-    void queue(std::size_t adu_size, std::size_t pdu_size, time_point ready) noexcept {
-        if (adu_size == 0) return;
+    // The reply of `adu_size` bytes in tx_, ready at `ready` + the processing time.
+    void queue(std::size_t adu_size, time_point ready) noexcept {
+        const std::uint8_t* const pdu = tx_.data() + (rtu() ? 1 : mbap_size);
         tx_size_ = adu_size;
-        tx_exception_ = pdu_size == 2 && (pdu_[0] & exception_flag) ? pdu_[1] : std::uint8_t{0};
+        tx_exception_ = pdu[0] & exception_flag ? pdu[1] : std::uint8_t{0};
         reply_at_ = ready + cfg_.processing_time;
         state_ = state::reply_queued;
     }
 
     static std::size_t exception(function fc, std::uint8_t code,
                                  std::span<std::uint8_t> out) noexcept {
-        return encode_exception(fc, static_cast<exception_code>(code), out).value_or(0);
+        out[0] = static_cast<std::uint8_t>(static_cast<std::uint8_t>(fc) | exception_flag);
+        out[1] = code;
+        return 2;
     }
     // [FC][byte count][n bytes already in place]
     static std::size_t counted(function fc, std::uint8_t n, std::span<std::uint8_t> out) noexcept {
@@ -522,7 +522,6 @@ private:
     bool garbled_ = false; // errors since the last frame or silence
     bool listen_only_ = false;
     time_point reply_at_{};
-    std::array<std::uint8_t, max_pdu> pdu_{};
     std::array<std::uint8_t, max_tcp_adu> tx_{};
     std::size_t tx_size_ = 0;
     std::uint8_t tx_exception_ = 0;
