@@ -501,3 +501,31 @@ TEST_CASE("modbus server: a link fixed at compile time overrides the configured 
     t.model().holding_registers()[0] = 0x1234;
     CHECK(ask(t, tcp(0x0102, 1, read_one)) == tcp(0x0102, 1, reply));
 }
+
+TEST_CASE("modbus server with a function set: others are illegal functions, FC 8 state too",
+          "[modbus][server]") {
+    constexpr function_set reads_and_single_writes =
+        functions<function::read_holding_registers, function::write_single_register>;
+    server<model, link_mode::rtu, reads_and_single_writes> s(rtu_config());
+    s.model().holding_registers()[2] = 0xBEEF;
+    CHECK(ask(s, rtu(1, {0x03, 0x00, 0x02, 0x00, 0x01})) == rtu(1, {0x03, 0x02, 0xBE, 0xEF}));
+    CHECK(ask(s, rtu(1, {0x06, 0x00, 0x03, 0x12, 0x34})) == rtu(1, {0x06, 0x00, 0x03, 0x12, 0x34}));
+    CHECK(s.model().holding_registers()[3] == 0x1234);
+    // Valid requests of functions outside the set: exception 01, nothing written.
+    CHECK(ask(s, rtu(1, {0x10, 0x00, 0x03, 0x00, 0x01, 0x02, 0x00, 0x07})) ==
+          exception_reply(1, 0x10, exception_code::illegal_function));
+    CHECK(ask(s, rtu(1, {0x04, 0x00, 0x00, 0x00, 0x01})) ==
+          exception_reply(1, 0x04, exception_code::illegal_function));
+    CHECK(s.model().holding_registers()[3] == 0x1234);
+    // Without FC 8 there is no listen only mode and no counters to report.
+    CHECK(ask(s, rtu(1, {0x08, 0x00, 0x04, 0x00, 0x00})) ==
+          exception_reply(1, 0x08, exception_code::illegal_function));
+    CHECK_FALSE(s.listen_only());
+    CHECK(s.counters().bus_message == 0);
+    CHECK(s.counters().server_message == 0);
+    CHECK(s.stats().requests == 5);
+    // The same request to a server with every function: counted.
+    server<model, link_mode::rtu> all(rtu_config());
+    CHECK(ask(all, rtu(1, {0x03, 0x00, 0x02, 0x00, 0x01})).size() == 7);
+    CHECK(all.counters().bus_message == 1);
+}

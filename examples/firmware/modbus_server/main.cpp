@@ -1,8 +1,9 @@
 // Modbus RTU server on a Cortex-M4 (STM32F4 register layout, USART2 on an RS-485
 // transceiver): unit 17 at 19200 8E1 serves a memory_model of 32 coils, 32 discrete inputs,
-// 64 holding and 32 input registers to a PLC, with FC 1-6, 15, 16, 23, 8 (diagnostics) and
-// 43/14 (device identification), from a super-loop that never blocks and uses no heap. The
-// link is fixed to RTU at compile time, so no TCP framing is compiled in.
+// 64 holding and 32 input registers to a PLC, with FC 1-6, 15, 16, 23 and 43/14 (device
+// identification), from a super-loop that never blocks and uses no heap. The link is fixed
+// to RTU at compile time, so no TCP framing is compiled in, and so are the function codes
+// (common/modbus_ten_functions.hpp): FC 8 (diagnostics) would be one more in the set.
 // The application mirrors the coils to outputs and its inputs to the discrete inputs and
 // input registers between requests.
 //
@@ -15,6 +16,7 @@
 #include "ferrule/modbus/memory_model.hpp"
 #include "ferrule/modbus/server.hpp"
 
+#include "../common/modbus_ten_functions.hpp"
 #include "../common/stm32f4_uart.hpp"
 
 namespace {
@@ -32,7 +34,7 @@ volatile std::uint16_t analog[32] = {};
 int main() {
     board::init(format);
     // In main(), not global: see examples/firmware/modbus_client.
-    ferrule::modbus::server<model, ferrule::modbus::link_mode::rtu> session(
+    ferrule::modbus::server<model, ferrule::modbus::link_mode::rtu, example::ten_functions> session(
         [] {
             ferrule::modbus::server_config c;
             c.units = {17};

@@ -280,30 +280,21 @@ inline constexpr std::uint8_t illegal_data_value = 3;
 inline constexpr std::uint8_t not_a_request = 0xFF; // empty: nothing to answer
 
 // Decodes a request PDU into `r`; returns 0, or the exception code it deserves, checked in
-// the order of AP §6's state diagrams: function code (01), quantity and byte count (03),
-// address + quantity (02).
+// the order of AP §6's state diagrams: function code (01; a function not in `Fs` too),
+// quantity and byte count (03), address + quantity (02).
+template <function_set Fs = all_functions>
 constexpr std::uint8_t decode_request(std::span<const std::uint8_t> p, request& r) noexcept {
     if (p.empty()) return not_a_request;
+    if (!Fs.has(p[0])) return illegal_function;
+    const auto f = static_cast<modbus::function>(p[0]);
+    if (one_of<Fs, function::encapsulated_interface>(f) && p.size() >= 2 &&
+        p[1] != mei_read_device_id)
+        return illegal_function;
     const std::size_t want = expected_request_length(p);
-    switch (p[0]) {
-    case 1:
-    case 2:
-    case 3:
-    case 4:
-    case 5:
-    case 6:
-    case 8:
-    case 15:
-    case 16:
-    case 23:
-    case 43: break;
-    default: return illegal_function;
-    }
-    if (p[0] == 43 && p.size() >= 2 && p[1] != mei_read_device_id) return illegal_function;
     if (want == 0 || want == no_frame || p.size() != want) return illegal_data_value;
     r = request{};
-    r.function = static_cast<modbus::function>(p[0]);
-    if (p[0] == 43) {
+    r.function = f;
+    if (one_of<Fs, function::encapsulated_interface>(f)) {
         r.mei_type = p[1];
         r.read_device_id_code = p[2];
         r.object_id = p[3];
@@ -311,38 +302,36 @@ constexpr std::uint8_t decode_request(std::span<const std::uint8_t> p, request& 
     }
     r.address = load_be16(&p[1]);
     r.quantity = load_be16(&p[3]);
-    switch (r.function) {
-    case function::read_coils:
-    case function::read_discrete_inputs:
-        if (!in(r.quantity, 1, max_read_bits)) return illegal_data_value;
+    if (one_of<Fs, function::read_coils, function::read_discrete_inputs,
+               function::read_holding_registers, function::read_input_registers>(f)) {
+        const bool bits = f == function::read_coils || f == function::read_discrete_inputs;
+        if (!in(r.quantity, 1, bits ? max_read_bits : max_read_registers))
+            return illegal_data_value;
         return fits(r.address, r.quantity) ? 0 : illegal_data_address;
-    case function::read_holding_registers:
-    case function::read_input_registers:
-        if (!in(r.quantity, 1, max_read_registers)) return illegal_data_value;
-        return fits(r.address, r.quantity) ? 0 : illegal_data_address;
-    case function::write_single_coil:
-    case function::write_single_register:
+    }
+    if (one_of<Fs, function::write_single_coil, function::write_single_register>(f)) {
         r.value = r.quantity;
         r.quantity = 0;
-        if (r.function == function::write_single_coil && r.value != coil_on && r.value != coil_off)
+        if (f == function::write_single_coil && r.value != coil_on && r.value != coil_off)
             return illegal_data_value;
         return 0;
-    case function::diagnostics:
+    }
+    if (one_of<Fs, function::diagnostics>(f)) {
         r.value = r.address;
         r.address = 0;
         r.quantity = 0;
         r.data = p.subspan(3, 2);
         return 0;
-    case function::write_multiple_coils:
-    case function::write_multiple_registers: {
-        const bool coils = r.function == function::write_multiple_coils;
+    }
+    if (one_of<Fs, function::write_multiple_coils, function::write_multiple_registers>(f)) {
+        const bool coils = f == function::write_multiple_coils;
         const std::size_t bytes = coils ? packed_size(r.quantity) : 2u * r.quantity;
         if (!in(r.quantity, 1, coils ? max_write_bits : max_write_registers) || p[5] != bytes)
             return illegal_data_value;
         r.data = p.subspan(6);
         return fits(r.address, r.quantity) ? 0 : illegal_data_address;
     }
-    case function::read_write_multiple_registers:
+    if (one_of<Fs, function::read_write_multiple_registers>(f)) {
         r.write_address = load_be16(&p[5]);
         r.write_quantity = load_be16(&p[7]);
         if (!in(r.quantity, 1, max_read_registers) ||
@@ -352,8 +341,8 @@ constexpr std::uint8_t decode_request(std::span<const std::uint8_t> p, request& 
         return fits(r.address, r.quantity) && fits(r.write_address, r.write_quantity)
                    ? 0
                    : illegal_data_address;
-    default: return illegal_function;
     }
+    return illegal_function;
 }
 } // namespace detail
 

@@ -95,7 +95,7 @@ struct server_config {
 };
 
 // The diagnostic counters of FC 8 (AP §6.8.1, SL §6.1), 16 bits as the response carries
-// them; they wrap around.
+// them; they wrap around. A server built without FC 8 (its function_set) keeps them zero.
 struct diagnostic_counters {
     std::uint16_t bus_message = 0;        // 11: frames with a good CRC, any unit
     std::uint16_t bus_comm_error = 0;     // 12: frames with a CRC error, each once
@@ -122,7 +122,9 @@ struct server_stats {
 
 // Link: the transport chosen by server_config::transport at run time (any), or fixed at
 // compile time, so RTU firmware does not carry the TCP framing and its held requests.
-template <data_model M, link_mode Link = link_mode::any>
+// Fs: the function codes served (function_set); the others get exception 01 like an unknown
+// one, and their code is not compiled in.
+template <data_model M, link_mode Link = link_mode::any, function_set Fs = all_functions>
 class server {
 public:
     // TCP: bytes behind a pending request that are kept for later (one full request).
@@ -169,11 +171,11 @@ public:
         ++stats_.replies;
         if (tx_exception_ != 0) {
             ++stats_.exceptions;
-            ++counters_.bus_exception;
+            count(&diagnostic_counters::bus_exception);
             if (tx_exception_ == code_of(exception_code::negative_acknowledge))
-                ++counters_.server_nak;
+                count(&diagnostic_counters::server_nak);
             if (tx_exception_ == code_of(exception_code::server_device_busy))
-                ++counters_.server_busy;
+                count(&diagnostic_counters::server_busy);
         }
         return session_action::send({tx_.data(), tx_size_}, false);
     }
@@ -192,7 +194,7 @@ public:
 
     // A character overrun the driver's UART reported (AP §6.8.1 sub-function 18): the
     // session itself loses no characters.
-    void on_overrun() noexcept { ++counters_.bus_char_overrun; }
+    void on_overrun() noexcept { count(&diagnostic_counters::bus_char_overrun); }
 
     // Executes one request PDU and writes the response PDU to `out` (max_pdu bytes); returns
     // its size, 0 when there is no answer: an empty PDU, function code 0 or one with the
@@ -203,10 +205,10 @@ public:
             return 0;
         const auto fc = static_cast<function>(pdu[0]);
         request r;
-        if (const std::uint8_t e = detail::decode_request(pdu, r)) return exception(fc, e, out);
-        switch (r.function) {
-        case function::read_coils:
-        case function::read_discrete_inputs: {
+        if (const std::uint8_t e = detail::decode_request<Fs>(pdu, r)) return exception(fc, e, out);
+        using detail::one_of;
+        const function f = r.function;
+        if (one_of<Fs, function::read_coils, function::read_discrete_inputs>(f)) {
             const auto n = static_cast<std::uint8_t>(packed_size(r.quantity));
             std::fill_n(out.begin() + 2, n, std::uint8_t{0});
             const auto data = out.subspan(2, n);
@@ -214,31 +216,30 @@ public:
                 return exception(fc, e, out);
             return counted(fc, n, out);
         }
-        case function::read_holding_registers:
-        case function::read_input_registers: {
+        if (one_of<Fs, function::read_holding_registers, function::read_input_registers>(f)) {
             const auto n = static_cast<std::uint8_t>(2 * r.quantity);
             if (const auto e = model_.read_registers(fc, r.address, r.quantity, out.subspan(2, n)))
                 return exception(fc, e, out);
             return counted(fc, n, out);
         }
-        case function::write_single_coil: {
+        if (one_of<Fs, function::write_single_coil>(f)) {
             const std::array<std::uint8_t, 1> bit{static_cast<std::uint8_t>(r.value == coil_on)};
             if (const auto e = model_.write_coils(r.address, 1, bit)) return exception(fc, e, out);
             return echo(pdu, out);
         }
-        case function::write_single_register:
+        if (one_of<Fs, function::write_single_register>(f)) {
             if (const auto e = model_.write_registers(r.address, 1, pdu.subspan(3, 2)))
                 return exception(fc, e, out);
             return echo(pdu, out);
-        case function::write_multiple_coils:
-        case function::write_multiple_registers: {
-            const bool coils = r.function == function::write_multiple_coils;
+        }
+        if (one_of<Fs, function::write_multiple_coils, function::write_multiple_registers>(f)) {
+            const bool coils = f == function::write_multiple_coils;
             const auto e = coils ? model_.write_coils(r.address, r.quantity, r.data)
                                  : model_.write_registers(r.address, r.quantity, r.data);
             if (e) return exception(fc, e, out);
             return echo(pdu.first(5), out);
         }
-        case function::read_write_multiple_registers: {
+        if (one_of<Fs, function::read_write_multiple_registers>(f)) {
             const auto n = static_cast<std::uint8_t>(2 * r.quantity);
             const auto data = out.subspan(2, n);
             auto e = model_.read_registers(function::read_holding_registers, r.address, r.quantity,
@@ -250,9 +251,8 @@ public:
             if (e) return exception(fc, e, out);
             return counted(fc, n, out);
         }
-        case function::diagnostics: return diagnostics(r, pdu, out);
-        case function::encapsulated_interface: return device_identification(r, out);
-        }
+        if (one_of<Fs, function::diagnostics>(f)) return diagnostics(r, pdu, out);
+        if (one_of<Fs, function::encapsulated_interface>(f)) return device_identification(r, out);
         return exception(fc, code_of(exception_code::illegal_function), out);
     }
 
@@ -261,7 +261,7 @@ public:
     const diagnostic_counters& counters() const noexcept { return counters_; }
     void clear_counters() noexcept { counters_ = {}; }
     // RTU: FC 8 sub-function 04 has put the server in listen only mode (AP §6.8.1).
-    bool listen_only() const noexcept { return listen_only_; }
+    bool listen_only() const noexcept { return diagnosed && listen_only_; }
     const server_stats& stats() const noexcept { return stats_; }
     const server_config& config() const noexcept { return cfg_; }
     // RTU: the unit ids answered; a change takes effect for the next frame.
@@ -289,6 +289,12 @@ private:
     }
     duration t35() const noexcept { return t35_; }
 
+    // FC 8 is served: its counters and listen only mode are kept (else they stay zero).
+    static constexpr bool diagnosed = Fs.has(function::diagnostics);
+    void count(std::uint16_t diagnostic_counters::*counter) noexcept {
+        if constexpr (diagnosed) ++(counters_.*counter);
+    }
+
     // --- RTU -------------------------------------------------------------------------------
     void feed_rtu(std::span<const std::uint8_t> in, time_point end) noexcept {
         for (;;) {
@@ -315,7 +321,7 @@ private:
         if (s.what == request_decoder::status::error) {
             if (!garbled_ && s.ec == errc::bad_checksum) {
                 ++stats_.bad_crc;
-                ++counters_.bus_comm_error;
+                count(&diagnostic_counters::bus_comm_error);
             } else if (!garbled_) {
                 ++stats_.malformed;
             }
@@ -328,19 +334,19 @@ private:
         if (state_ == state::reply_queued) {
             state_ = state::listening;
             ++stats_.abandoned;
-            ++counters_.server_no_response;
+            count(&diagnostic_counters::server_no_response);
         }
-        ++counters_.bus_message;
+        count(&diagnostic_counters::bus_message);
         const std::uint8_t unit = rtu_.address();
         if (unit != broadcast_address && !cfg_.units.contains(unit)) {
             ++stats_.other_unit;
             return;
         }
-        ++counters_.server_message;
+        count(&diagnostic_counters::server_message);
         // Listen only mode (AP §6.8.1 sub-function 04): only a restart is acted upon.
-        const bool listening_only = listen_only_;
+        const bool listening_only = listen_only();
         if (listening_only && !is_restart(rtu_.pdu())) {
-            ++counters_.server_no_response;
+            count(&diagnostic_counters::server_no_response);
             return;
         }
         ++stats_.requests;
@@ -349,7 +355,7 @@ private:
         if (listening_only) n = 0; // the restart that ends the mode is not answered either
         if (unit == broadcast_address || n == 0) {
             if (unit == broadcast_address) ++stats_.broadcasts;
-            ++counters_.server_no_response;
+            count(&diagnostic_counters::server_no_response);
             return;
         }
         queue(seal_rtu(unit, tx_.data(), n), end + t35());
@@ -362,8 +368,8 @@ private:
             in = in.subspan(s.consumed);
             if (s.what == tcp_decoder::status::error) ++stats_.malformed;
             if (s.what == tcp_decoder::status::frame) {
-                ++counters_.bus_message;
-                ++counters_.server_message;
+                count(&diagnostic_counters::bus_message);
+                count(&diagnostic_counters::server_message);
                 ++stats_.requests;
                 // The reply is built in place, behind its MBAP header.
                 const std::size_t n = execute(tcp_.pdu(), {tx_.data() + mbap_size, max_pdu});
