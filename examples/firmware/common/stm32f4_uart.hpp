@@ -93,7 +93,7 @@ public:
                 in[0] = static_cast<std::uint8_t>(regs().dr & data_mask_);
                 return {1, {}};
             }
-        } while (now() < deadline);
+        } while (ferrule::before(now(), deadline));
         return {0, ferrule::errc::timeout};
     }
     [[gnu::noinline]] void discard_input() noexcept {

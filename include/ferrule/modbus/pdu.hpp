@@ -98,12 +98,26 @@ template <function... F>
 inline constexpr function_set functions{
     ((std::uint64_t{1} << static_cast<unsigned>(F)) | ... | 0u)};
 
-inline constexpr function_set all_functions =
-    functions<function::read_coils, function::read_discrete_inputs,
-              function::read_holding_registers, function::read_input_registers,
-              function::write_single_coil, function::write_single_register, function::diagnostics,
-              function::write_multiple_coils, function::write_multiple_registers,
-              function::read_write_multiple_registers, function::encapsulated_interface>;
+namespace detail {
+template <function... F>
+struct function_list {
+    static constexpr function_set set = functions<F...>;
+    // f is one of F… in Fs: one comparison per function of Fs (Fs.has() of a code known only
+    // at run time shifts a 64-bit mask, a library call on Cortex-M).
+    template <function_set Fs>
+    static constexpr bool has(function f) noexcept {
+        return ((Fs.has(F) && f == F) || ...);
+    }
+};
+// The function codes ferrule implements.
+using every_function = function_list<
+    function::read_coils, function::read_discrete_inputs, function::read_holding_registers,
+    function::read_input_registers, function::write_single_coil, function::write_single_register,
+    function::diagnostics, function::write_multiple_coils, function::write_multiple_registers,
+    function::read_write_multiple_registers, function::encapsulated_interface>;
+} // namespace detail
+
+inline constexpr function_set all_functions = detail::every_function::set;
 
 constexpr std::size_t packed_size(std::size_t bits) noexcept {
     return (bits + 7) / 8;
@@ -285,8 +299,8 @@ inline constexpr std::uint8_t not_a_request = 0xFF; // empty: nothing to answer
 template <function_set Fs = all_functions>
 constexpr std::uint8_t decode_request(std::span<const std::uint8_t> p, request& r) noexcept {
     if (p.empty()) return not_a_request;
-    if (!Fs.has(p[0])) return illegal_function;
     const auto f = static_cast<modbus::function>(p[0]);
+    if (!every_function::has<Fs>(f)) return illegal_function;
     if (one_of<Fs, function::encapsulated_interface>(f) && p.size() >= 2 &&
         p[1] != mei_read_device_id)
         return illegal_function;
