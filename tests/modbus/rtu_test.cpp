@@ -1,7 +1,10 @@
-// Modbus RTU: CRC golden vectors, encode_rtu, rtu_decoder framing and resynchronisation.
+// Modbus RTU: CRC golden vectors, encode_rtu, rtu_decoder and rtu_receiver framing and
+// resynchronisation.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <array>
+#include <span>
 #include <vector>
 
 #include "ferrule/core/checksum.hpp"
@@ -297,4 +300,116 @@ TEST_CASE("modbus rtu_decoder keeps at most 256 bytes of an unframed request", "
     CHECK(d.in_frame());
     d.reset();
     CHECK_FALSE(d.in_frame());
+}
+
+namespace {
+// What an rtu_receiver hands its session; stops at the frame numbered `stop_at` (1-based).
+struct recorded {
+    std::vector<bytes> frames; // address + PDU
+    std::vector<errc> dropped;
+    std::size_t stop_at = 0;
+    bool on_frame(std::uint8_t address, std::span<const std::uint8_t> pdu) {
+        bytes f{address};
+        f.insert(f.end(), pdu.begin(), pdu.end());
+        frames.push_back(f);
+        return frames.size() != stop_at;
+    }
+    void on_garbage(errc why) { dropped.push_back(why); }
+};
+
+template <class R>
+recorded push_all(R& r, const bytes& in) {
+    recorded out;
+    for (const std::uint8_t b : in) r.push(b, out);
+    return out;
+}
+} // namespace
+
+TEST_CASE("modbus rtu_receiver: frames back to back, garbage and a CRC error between them",
+          "[modbus][rtu]") {
+    const auto first = rtu(0x11, {0x03, 0x02, 0x00, 0x64});
+    auto broken = rtu(0x11, {0x06, 0x00, 0x01, 0x00, 0x03});
+    broken.back() ^= 0x01;
+    const auto second = rtu(0x12, {0x06, 0x00, 0x01, 0x00, 0x03});
+    bytes stream = first;
+    stream.insert(stream.end(), {0x00, 0x80}); // no function code 0x00 / 0x80 exists
+    stream.insert(stream.end(), broken.begin(), broken.end());
+    stream.insert(stream.end(), second.begin(), second.end());
+
+    // Realigned on the byte after the broken frame's address, the receiver waits for a longer
+    // frame; the silence after the good one ends the wait, as it does for rtu_decoder.
+    rtu_receiver<rtu_frames::responses> r;
+    auto got = push_all(r, stream);
+    CHECK(got.frames.size() == 1);
+    r.finish(got);
+    REQUIRE(got.frames.size() == 2);
+    CHECK(got.frames[0] == bytes{0x11, 0x03, 0x02, 0x00, 0x64});
+    CHECK(got.frames[1] == bytes{0x12, 0x06, 0x00, 0x01, 0x00, 0x03});
+    // The two bytes of garbage, then the broken frame's bytes one by one: the first of them
+    // for its CRC.
+    REQUIRE(got.dropped.size() >= 3);
+    CHECK(got.dropped[0] == errc::malformed);
+    CHECK(std::count(got.dropped.begin(), got.dropped.end(), errc::bad_checksum) >= 1);
+    CHECK(r.empty());
+
+    // A session that stops at the first frame (a client: its response) keeps it and the
+    // bytes behind it until clear().
+    rtu_receiver<rtu_frames::responses> s;
+    recorded stop;
+    stop.stop_at = 1;
+    for (std::size_t i = 0; i < stream.size() && stop.frames.empty(); ++i) s.push(stream[i], stop);
+    CHECK(stop.frames.size() == 1);
+    CHECK_FALSE(s.empty());
+    s.clear();
+    CHECK(s.empty());
+}
+
+TEST_CASE("modbus rtu_receiver: a client's frames only its functions' responses", "[modbus][rtu]") {
+    const auto read = rtu(0x01, {0x03, 0x02, 0x12, 0x34});
+    const auto write = rtu(0x01, {0x06, 0x00, 0x01, 0x00, 0x03});
+    const auto exception = rtu(0x01, {0x86, 0x02});
+    rtu_receiver<rtu_frames::responses, functions<function::write_single_register>> r;
+    bytes stream = read;
+    stream.insert(stream.end(), write.begin(), write.end());
+    stream.insert(stream.end(), exception.begin(), exception.end());
+    const auto got = push_all(r, stream);
+    REQUIRE(got.frames.size() == 2);
+    CHECK(got.frames[0] == bytes{0x01, 0x06, 0x00, 0x01, 0x00, 0x03});
+    CHECK(got.frames[1] == bytes{0x01, 0x86, 0x02});
+    CHECK(got.dropped.size() >= read.size()); // FC 3 is not framed: its bytes are garbage
+}
+
+TEST_CASE("modbus rtu_receiver: requests of unknown function codes end at the silence",
+          "[modbus][rtu]") {
+    const auto odd = rtu(0x05, {0x64, 0x01, 0x02, 0x03});
+    rtu_receiver<rtu_frames::requests> r;
+    auto got = push_all(r, odd);
+    CHECK(got.frames.empty());
+    CHECK(got.dropped.empty());
+    CHECK_FALSE(r.empty());
+    r.finish(got);
+    REQUIRE(got.frames.size() == 1);
+    CHECK(got.frames[0] == bytes{0x05, 0x64, 0x01, 0x02, 0x03});
+    CHECK(r.empty());
+
+    // A half request at the silence is dropped byte by byte, as garbage.
+    const auto half = rtu(0x05, {0x03, 0x00, 0x00, 0x00, 0x01});
+    rtu_receiver<rtu_frames::requests> h;
+    got = push_all(h, bytes(half.begin(), half.begin() + 4));
+    h.finish(got);
+    CHECK(got.frames.empty());
+    CHECK(got.dropped == std::vector<errc>(4, errc::malformed));
+    CHECK(h.empty());
+
+    // A response receiver drops the unknown code at once.
+    rtu_receiver<rtu_frames::responses> resp;
+    got = push_all(resp, odd);
+    CHECK(got.frames.empty());
+    CHECK_FALSE(got.dropped.empty());
+
+    // Bytes that fill an ADU and still form no request are dropped from the front.
+    rtu_receiver<rtu_frames::requests> full;
+    got = push_all(full, bytes(600, 0x64));
+    CHECK(got.frames.empty());
+    CHECK(got.dropped.size() == 600 - 255);
 }

@@ -11,9 +11,9 @@
 //     inter_byte_timeout (RTU, 0 = off) ends it sooner: silence inside a frame longer than
 //     that is errc::frame_gap (SL §2.5.1.1 allows 1.5 characters; USB adapters and ptys
 //     merge and split bytes, hence off by default)
-//   * RTU responses are framed by length (expected_response_length()): bytes before the
-//     response that start no frame are skipped; after a CRC error or such garbage the attempt ends
-//     once the line has been silent for t3.5 (the frame is over, SL §2.5.1.1; at the latest at the
+//   * RTU responses are framed by length (rtu_receiver): bytes before the response that
+//     start no frame are skipped; after a CRC error or such garbage the attempt ends once the
+//     line has been silent for t3.5 (the frame is over, SL §2.5.1.1; at the latest at the
 //     deadline + the wire time of 256 bytes) unless a frame is found in what was received
 //   * the response must come from the unit asked (else errc::unexpected_address) and answer
 //     the request: function code, byte count, echo (parse_response()). TCP: every attempt
@@ -166,7 +166,7 @@ public:
             // An answer before our request's computed wire end: the link is faster than the
             // serial format says (a pty, a TCP bridge), so the request's hold ends now.
             if (awaiting && before(now, tx_end_) && echo_pos_ == tx_size_) quiet_until_ = now;
-            if (awaiting && cfg_.inter_byte_timeout.count() > 0 && rx_size_ > 0 &&
+            if (awaiting && cfg_.inter_byte_timeout.count() > 0 && !rx_.empty() &&
                 before(last_rx_ + cfg_.inter_byte_timeout,
                        now - cfg_.format.chars_time(in.size()))) {
                 last_rx_ = now;
@@ -232,7 +232,7 @@ private:
         if (!rtu()) tx_size_ = seal_tcp(++transaction_, unit_, tx_.data(), pdu_size_);
         tx_end_ = rtu() ? now + cfg_.format.chars_time(tx_size_) : now;
         last_rx_ = tx_end_;
-        rx_size_ = 0;
+        rx_.clear();
         tcp_.reset();
         heard_ = false;
         decode_error_ = errc{};
@@ -258,7 +258,7 @@ private:
     [[gnu::noinline]] void rearm() noexcept {
         deadline_ = tx_end_ + cfg_.response_timeout;
         gap_ = false;
-        if (!rtu() || (!garbled() && rx_size_ == 0)) return;
+        if (!rtu() || (!garbled() && rx_.empty())) return;
         const time_point late = deadline_ + adu_time_;
         deadline_ = late;
         if (garbled()) {
@@ -274,9 +274,9 @@ private:
     void expire() noexcept {
         // The silence ends what was received: a frame behind the bytes that start none still
         // counts.
-        while (rtu() && rx_size_ > 0) {
-            drop(errc::malformed);
-            scan();
+        if (rtu()) {
+            events e{*this};
+            rx_.finish(e);
             if (state_ != state::awaiting) return;
         }
         if (gap_)
@@ -289,6 +289,7 @@ private:
 
     // Takes bytes of the response until it is evaluated; returns how many.
     std::size_t feed_rtu(std::span<const std::uint8_t> in) noexcept {
+        events e{*this};
         std::size_t used = 0;
         for (; used < in.size() && state_ == state::awaiting; ++used) {
             if (echo_pos_ < tx_size_) {
@@ -301,49 +302,29 @@ private:
                 // request's) begin the response.
                 const std::size_t held = echo_pos_;
                 echo_pos_ = tx_size_;
-                for (std::size_t i = 0; i < held && state_ == state::awaiting; ++i) push(tx_[i]);
+                for (std::size_t i = 0; i < held && state_ == state::awaiting; ++i)
+                    rx_.push(tx_[i], e);
                 if (state_ != state::awaiting) break;
             }
             heard_ = true;
-            push(in[used]);
+            rx_.push(in[used], e);
         }
         if (state_ == state::awaiting) rearm();
         return used;
     }
 
-    // RTU framing by the length the function code predicts (expected_response_length): a
-    // client frames only responses to the functions it can send, and exception responses.
-    void push(std::uint8_t b) noexcept {
-        if (rx_size_ == rx_.size()) drop(errc::malformed);
-        rx_[rx_size_++] = b;
-        scan();
-    }
-
-    // Looks for a frame at the front of what was received; drops a byte from the front for
-    // each that starts none, or whose frame fails its CRC.
-    void scan() noexcept {
-        while (rx_size_ >= 2) {
-            const std::span<const std::uint8_t> pdu(rx_.data() + 1, rx_size_ - 1);
-            const std::size_t n = expected_response_length<Fs, false>(pdu);
-            if (n == 0) return;
-            if (n == no_frame) {
-                drop(errc::malformed);
-                continue;
-            }
-            if (rx_size_ < n + 3) return;
-            if (crc16_modbus({rx_.data(), n + 3}) == 0) {
-                evaluate(rx_[0], pdu.first(n));
-                return;
-            }
-            drop(errc::bad_checksum);
+    // What the RTU receive buffer finds: the response is evaluated and nothing behind it
+    // is looked at; dropped bytes note the attempt's first decoding error.
+    struct events {
+        basic_client& c;
+        bool on_frame(std::uint8_t unit, std::span<const std::uint8_t> pdu) noexcept {
+            c.evaluate(unit, pdu);
+            return false;
         }
-    }
-
-    void drop(errc why) noexcept {
-        if (!garbled()) decode_error_ = why; // the attempt's first decoding error
-        for (std::size_t i = 1; i < rx_size_; ++i) rx_[i - 1] = rx_[i];
-        --rx_size_;
-    }
+        void on_garbage(errc why) noexcept {
+            if (!c.garbled()) c.decode_error_ = why;
+        }
+    };
 
     std::size_t feed_tcp(std::span<const std::uint8_t> in) noexcept {
         std::size_t used = 0;
@@ -425,9 +406,8 @@ private:
     std::size_t pdu_size_ = 0;
     std::array<std::uint8_t, max_tcp_adu> tx_{};
     std::size_t tx_size_ = 0;
-    std::span<const std::uint8_t> rx_pdu_{};     // the response PDU as received
-    std::array<std::uint8_t, max_rtu_adu> rx_{}; // RTU: bytes of the response so far
-    std::size_t rx_size_ = 0;
+    std::span<const std::uint8_t> rx_pdu_{};       // the response PDU as received
+    rtu_receiver<rtu_frames::responses, Fs> rx_{}; // RTU: the response so far
     // An RTU-only client carries no MBAP decoder (276 bytes of RAM).
     struct no_tcp_decoder {
         constexpr void reset() noexcept {}

@@ -154,4 +154,101 @@ private:
 
 using rtu_decoder = basic_rtu_decoder<>;
 
+// The receive buffer of an RTU session: bytes are pushed one at a time and framed as
+// basic_rtu_decoder frames them, but what they hold goes straight to the session `h` (no
+// step protocol, so firmware carries less code):
+//     bool h.on_frame(address, pdu)  a frame whose CRC checks; true: go on with the bytes
+//                                    behind it, false: stop (the frame and the bytes behind
+//                                    it stay until clear(); push no more before)
+//     void h.on_garbage(errc)        a byte dropped from the front: errc::bad_checksum when
+//                                    it began a frame whose CRC failed, errc::malformed when
+//                                    it began none
+// Frames: requests (a server: a request of an unknown function code waits for the silence
+// after it, finish(), as long as it can still fit an ADU) or responses of the functions in Fs
+// (a client).
+template <rtu_frames Frames, function_set Fs = all_functions>
+requires(Frames != rtu_frames::either) class rtu_receiver {
+public:
+    template <class H>
+    void push(std::uint8_t b, H& h) noexcept {
+        if (size_ == buf_.size()) drop(errc::malformed, h);
+        buf_[size_++] = b;
+        scan(h);
+    }
+
+    // The line has been silent for t3.5 (SL §2.5.1.1): no byte will complete what is
+    // buffered. Bytes are dropped from the front until the rest holds a frame or nothing is
+    // left; a request of a function code that cannot be framed by length is a frame when its
+    // CRC checks (the server answers it with exception 01).
+    template <class H>
+    void finish(H& h) noexcept {
+        while (size_ > 0) {
+            if (requests && size_ >= 4 && length() == no_frame && crc16_modbus(view(size_)) == 0) {
+                if (!frame(size_, h)) return;
+                continue;
+            }
+            drop(errc::malformed, h);
+            if (!scan(h)) return;
+        }
+    }
+
+    bool empty() const noexcept { return size_ == 0; }
+    void clear() noexcept { size_ = 0; }
+
+private:
+    static constexpr bool requests = Frames == rtu_frames::requests;
+
+    std::span<const std::uint8_t> view(std::size_t n) const noexcept { return {buf_.data(), n}; }
+    // The PDU's length from its first bytes: 0 = need more, no_frame = cannot be framed.
+    std::size_t length() const noexcept {
+        const std::span<const std::uint8_t> pdu(buf_.data() + 1, size_ - 1);
+        if constexpr (requests)
+            return expected_request_length(pdu);
+        else
+            return expected_response_length<Fs, false>(pdu);
+    }
+
+    // False when the session stopped at a frame.
+    template <class H>
+    bool scan(H& h) noexcept {
+        while (size_ >= 2) {
+            const std::size_t n = length();
+            if (n == 0) return true;
+            if (n == no_frame) {
+                if (requests && size_ < buf_.size()) return true;
+                drop(errc::malformed, h);
+                continue;
+            }
+            if (size_ < n + 3) return true;
+            if (crc16_modbus(view(n + 3)) != 0) {
+                drop(errc::bad_checksum, h);
+                continue;
+            }
+            if (!frame(n + 3, h)) return false;
+        }
+        return true;
+    }
+
+    template <class H>
+    bool frame(std::size_t n, H& h) noexcept {
+        if (!h.on_frame(buf_[0], view(n).subspan(1, n - 3))) return false;
+        shift(n);
+        return true;
+    }
+
+    template <class H>
+    void drop(errc why, H& h) noexcept {
+        shift(1);
+        h.on_garbage(why);
+    }
+
+    void shift(std::size_t n) noexcept {
+        for (std::size_t i = n; i < size_; ++i) buf_[i - n] = buf_[i];
+        size_ -= n;
+    }
+
+    std::array<std::uint8_t, max_rtu_adu> buf_{};
+    std::size_t size_ = 0;
+};
+
 } // namespace ferrule::modbus

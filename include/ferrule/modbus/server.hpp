@@ -2,8 +2,8 @@
 // data model (data_model.hpp) that it owns.
 //
 // RTU (Modbus over Serial Line V1.02):
-//   * requests are framed by the length their function code predicts (a basic_rtu_decoder
-//     of rtu_frames::requests); when the line has been silent for t3.5 the bytes buffered end
+//   * requests are framed by the length their function code predicts (an rtu_receiver of
+//     rtu_frames::requests); when the line has been silent for t3.5 the bytes buffered end
 //     the frame (§2.5.1.1), so a request of an unknown function code is answered with
 //     exception 01 too
 //   * the server answers the unit ids of its set (one port may carry several, as a gateway or
@@ -151,17 +151,17 @@ public:
         }
         // RTU: a silence of t3.5 before these bytes ended the frame before them (SL
         // §2.5.1.1). Bytes take their wire time, so the chunk began that long before `end`.
-        if (rtu_.in_frame() && !before(end - cfg_.format.chars_time(bytes.size()), rx_end_ + t35()))
+        if (!rtu_.empty() && !before(end - cfg_.format.chars_time(bytes.size()), rx_end_ + t35()))
             finish_rtu();
         rx_end_ = end;
-        feed_rtu(bytes, end);
+        feed_rtu(bytes);
     }
 
     // idle: nothing to do until bytes come; wait: call again at the deadline (a reply is due,
     // or the RTU frame in progress ends by silence); send: put these bytes on the line now.
     session_action next(time_point now) noexcept {
         if (!rtu() && state_ == state::listening && held_size_ > 0) resume();
-        if (state_ == state::listening && rtu() && rtu_.in_frame()) {
+        if (state_ == state::listening && rtu() && !rtu_.empty()) {
             if (before(now, rx_end_ + t35())) return session_action::wait_until(rx_end_ + t35());
             finish_rtu();
         }
@@ -188,7 +188,7 @@ public:
     time_point wake_at() const noexcept {
         if (state_ == state::reply_queued) return reply_at_;
         if (!rtu() && held_size_ > 0) return held_end_;
-        if (rtu() && rtu_.in_frame()) return rx_end_ + t35();
+        if (rtu() && !rtu_.empty()) return rx_end_ + t35();
         return never;
     }
 
@@ -269,7 +269,6 @@ public:
 
 private:
     enum class state : std::uint8_t { listening, reply_queued };
-    using request_decoder = basic_rtu_decoder<all_functions, rtu_frames::requests>;
 
     // Conformity level of FC 43/14 (AP §6.21): basic identification, stream and individual
     // access.
@@ -296,39 +295,43 @@ private:
     }
 
     // --- RTU -------------------------------------------------------------------------------
-    void feed_rtu(std::span<const std::uint8_t> in, time_point end) noexcept {
-        for (;;) {
-            const auto s = rtu_.feed(in);
-            in = in.subspan(s.consumed);
-            rtu_step(s, end);
-            if (s.what == request_decoder::status::need_more) return;
+    // What the RTU receive buffer finds: every frame is handled, in order.
+    struct events {
+        server& s;
+        bool on_frame(std::uint8_t unit, std::span<const std::uint8_t> pdu) noexcept {
+            s.handle_rtu(unit, pdu);
+            return true;
         }
+        void on_garbage(errc why) noexcept { s.garbage(why); }
+    };
+
+    void feed_rtu(std::span<const std::uint8_t> in) noexcept {
+        events e{*this};
+        for (const std::uint8_t b : in) rtu_.push(b, e);
     }
 
     // The silence ends what is buffered: frames in it, then garbage, until nothing is left.
     void finish_rtu() noexcept {
-        for (;;) {
-            const auto s = rtu_.finish();
-            rtu_step(s, rx_end_);
-            if (s.what == request_decoder::status::need_more) break;
-        }
+        events e{*this};
+        rtu_.finish(e);
         garbled_ = false;
     }
 
-    void rtu_step(const request_decoder::step& s, time_point end) noexcept {
-        // The decoder resynchronises byte by byte, so one damaged frame may give several
-        // errors: it is counted once, by its first.
-        if (s.what == request_decoder::status::error) {
-            if (!garbled_ && s.ec == errc::bad_checksum) {
-                ++stats_.bad_crc;
-                count(&diagnostic_counters::bus_comm_error);
-            } else if (!garbled_) {
-                ++stats_.malformed;
-            }
-            garbled_ = true;
-            return;
+    // Bytes dropped while framing (the buffer resynchronises byte by byte, so one damaged
+    // frame may give several): counted once, by the first.
+    void garbage(errc why) noexcept {
+        if (garbled_) return;
+        garbled_ = true;
+        if (why == errc::bad_checksum) {
+            ++stats_.bad_crc;
+            count(&diagnostic_counters::bus_comm_error);
+        } else {
+            ++stats_.malformed;
         }
-        if (s.what != request_decoder::status::frame) return;
+    }
+
+    // A frame, ended by the chunk that ended at rx_end_ or by the silence after it.
+    void handle_rtu(std::uint8_t unit, std::span<const std::uint8_t> pdu) noexcept {
         garbled_ = false;
         // Any frame on the line before the reply went out: the client has moved on.
         if (state_ == state::reply_queued) {
@@ -337,7 +340,6 @@ private:
             count(&diagnostic_counters::server_no_response);
         }
         count(&diagnostic_counters::bus_message);
-        const std::uint8_t unit = rtu_.address();
         if (unit != broadcast_address && !cfg_.units.contains(unit)) {
             ++stats_.other_unit;
             return;
@@ -345,20 +347,20 @@ private:
         count(&diagnostic_counters::server_message);
         // Listen only mode (AP §6.8.1 sub-function 04): only a restart is acted upon.
         const bool listening_only = listen_only();
-        if (listening_only && !is_restart(rtu_.pdu())) {
+        if (listening_only && !is_restart(pdu)) {
             count(&diagnostic_counters::server_no_response);
             return;
         }
         ++stats_.requests;
         // The reply is built in place, behind its address.
-        std::size_t n = execute(rtu_.pdu(), {tx_.data() + 1, max_pdu});
+        std::size_t n = execute(pdu, {tx_.data() + 1, max_pdu});
         if (listening_only) n = 0; // the restart that ends the mode is not answered either
         if (unit == broadcast_address || n == 0) {
             if (unit == broadcast_address) ++stats_.broadcasts;
             count(&diagnostic_counters::server_no_response);
             return;
         }
-        queue(seal_rtu(unit, tx_.data(), n), end + t35());
+        queue(seal_rtu(unit, tx_.data(), n), rx_end_ + t35());
     }
 
     // --- TCP -------------------------------------------------------------------------------
@@ -522,7 +524,7 @@ private:
     diagnostic_counters counters_{};
     server_stats stats_{};
     state state_ = state::listening;
-    request_decoder rtu_{};
+    rtu_receiver<rtu_frames::requests> rtu_{};
     tcp_decoder tcp_{};
     time_point rx_end_{};
     bool garbled_ = false; // errors since the last frame or silence
