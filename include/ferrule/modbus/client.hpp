@@ -113,12 +113,6 @@ public:
         const auto n = encode_request<Fs>(r, {pdu, max_pdu});
         if (!n) return n.error();
         pdu_size_ = *n;
-        sent_ = r;
-        // parse_response() reads the request's data only for FC 8's echo (AP §6.8.1), and the
-        // caller's may not live on: it is taken from the PDU.
-        sent_.data = detail::one_of<Fs, function::diagnostics>(r.function)
-                         ? std::span<const std::uint8_t>(pdu + 3, 2)
-                         : std::span<const std::uint8_t>{};
         unit_ = unit;
         no_reply_ =
             broadcast || (r.function == function::diagnostics &&
@@ -355,7 +349,7 @@ private:
         // The PDU stays in the receive buffer: nothing more is taken into it until the next
         // attempt, and none follows a response that answers.
         // response_ is written only by a response that answers.
-        if (const errc e = detail::check_response<Fs>(sent_, pdu, response_); e != errc{}) {
+        if (const errc e = detail::check_response<Fs>(this->pdu(), pdu, response_); e != errc{}) {
             fail(e);
             return;
         }
@@ -401,7 +395,6 @@ private:
     duration adu_time_;  // the longest ADU on the wire
     client_stats stats_{};
     state state_ = state::idle;
-    request sent_{};
     modbus::response response_{};
     std::size_t pdu_size_ = 0;
     std::array<std::uint8_t, max_tcp_adu> tx_{};

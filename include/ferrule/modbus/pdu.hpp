@@ -404,56 +404,23 @@ constexpr bool next_device_id_object(std::span<const std::uint8_t>& objects,
 }
 
 namespace detail {
-// parse_response() without error categories, for the client session: errc{} when `pdu`
-// answers `sent`, as a normal response (then `r` is filled) or as a well-formed exception
-// response (pdu[0] carries exception_flag, pdu[1] the code).
+// parse_response() without error categories, against the request as sent (its PDU `q`, as
+// encode_request<Fs>() wrote it), for the client session: errc{} when `pdu` answers it, as a
+// normal response (then `r` is filled) or as a well-formed exception response (pdu[0]
+// carries exception_flag, pdu[1] the code).
 template <function_set Fs>
-constexpr errc check_response(const request& sent, std::span<const std::uint8_t> pdu,
+constexpr errc check_response(std::span<const std::uint8_t> q, std::span<const std::uint8_t> pdu,
                               response& r) noexcept {
     if (pdu.empty()) return errc::malformed;
-    const function f = sent.function;
-    const auto fc = static_cast<std::uint8_t>(f);
+    const std::uint8_t fc = q[0];
+    const auto f = static_cast<function>(fc);
     if (pdu[0] == (fc | exception_flag))
         return pdu.size() != 2 || pdu[1] == 0 ? errc::malformed : errc{};
     if (pdu[0] != fc) return errc::unexpected_type;
     // `r` is written once the response has passed its checks.
-    if (one_of<Fs, function::read_coils, function::read_discrete_inputs,
-               function::read_holding_registers, function::read_input_registers,
-               function::read_write_multiple_registers>(f)) {
-        const bool bits = f == function::read_coils || f == function::read_discrete_inputs;
-        const std::size_t bytes = bits ? packed_size(sent.quantity) : 2u * sent.quantity;
-        if (pdu.size() < 2 || pdu[1] != bytes || pdu.size() != 2 + bytes) return errc::malformed;
-        r = {.function = f,
-             .data = pdu.subspan(2),
-             .address = sent.address,
-             .quantity = sent.quantity};
-        return errc{};
-    }
-    if (one_of<Fs, function::write_single_coil, function::write_single_register,
-               function::write_multiple_coils, function::write_multiple_registers>(f)) {
-        if (pdu.size() != 5 || load_be16(&pdu[1]) != sent.address) return errc::malformed;
-        const std::uint16_t second = load_be16(&pdu[3]);
-        const bool single =
-            f == function::write_single_coil || f == function::write_single_register;
-        if (second != (single ? sent.value : sent.quantity)) return errc::malformed;
-        r = {.function = f,
-             .address = sent.address,
-             .value = single ? second : std::uint16_t{0},
-             .quantity = single ? std::uint16_t{0} : second};
-        return errc{};
-    }
-    if (one_of<Fs, function::diagnostics>(f)) {
-        // Echo of the sub-function; Return Query Data echoes the data too (AP §6.8.1).
-        if (pdu.size() != 5 || load_be16(&pdu[1]) != sent.value) return errc::malformed;
-        if (sent.value == static_cast<std::uint16_t>(diag_sub::return_query_data) &&
-            (sent.data.size() != 2 || sent.data[0] != pdu[3] || sent.data[1] != pdu[4]))
-            return errc::malformed;
-        r = {.function = f, .data = pdu.subspan(3, 2), .value = sent.value};
-        return errc{};
-    }
     if (one_of<Fs, function::encapsulated_interface>(f)) {
         // 2B 0E code conformity more-follows(00/FF) next-object count objects… (AP §6.21)
-        if (pdu.size() < 7 || pdu[1] != mei_read_device_id || pdu[2] != sent.read_device_id_code)
+        if (pdu.size() < 7 || pdu[1] != mei_read_device_id || pdu[2] != q[2])
             return errc::malformed;
         if (pdu[4] != 0x00 && pdu[4] != 0xFF) return errc::malformed;
         std::span<const std::uint8_t> rest = pdu.subspan(7);
@@ -469,6 +436,44 @@ constexpr errc check_response(const request& sent, std::span<const std::uint8_t>
              .next_object_id = pdu[5]};
         return errc{};
     }
+    // The other requests begin with two 16-bit fields: address (FC 8: sub-function) and
+    // quantity (FC 5, 6: value; FC 8: data).
+    const std::uint16_t first = load_be16(&q[1]);
+    const std::uint16_t second = load_be16(&q[3]);
+    const auto echoes = [&](std::size_t n) {
+        for (std::size_t i = 1; i < n; ++i)
+            if (pdu[i] != q[i]) return false;
+        return true;
+    };
+    if (one_of<Fs, function::read_coils, function::read_discrete_inputs,
+               function::read_holding_registers, function::read_input_registers,
+               function::read_write_multiple_registers>(f)) {
+        const bool bits = f == function::read_coils || f == function::read_discrete_inputs;
+        const std::size_t bytes = bits ? packed_size(second) : 2u * second;
+        if (pdu.size() < 2 || pdu[1] != bytes || pdu.size() != 2 + bytes) return errc::malformed;
+        r = {.function = f, .data = pdu.subspan(2), .address = first, .quantity = second};
+        return errc{};
+    }
+    if (pdu.size() != 5) return errc::malformed;
+    if (one_of<Fs, function::write_single_coil, function::write_single_register,
+               function::write_multiple_coils, function::write_multiple_registers>(f)) {
+        // The echo of address and value or quantity.
+        if (!echoes(5)) return errc::malformed;
+        const bool single =
+            f == function::write_single_coil || f == function::write_single_register;
+        r = {.function = f,
+             .address = first,
+             .value = single ? second : std::uint16_t{0},
+             .quantity = single ? std::uint16_t{0} : second};
+        return errc{};
+    }
+    if (one_of<Fs, function::diagnostics>(f)) {
+        // Echo of the sub-function; Return Query Data echoes the data too (AP §6.8.1).
+        const bool query = first == static_cast<std::uint16_t>(diag_sub::return_query_data);
+        if (!echoes(query ? 5 : 3)) return errc::malformed;
+        r = {.function = f, .data = pdu.subspan(3, 2), .value = first};
+        return errc{};
+    }
     return errc::invalid_argument;
 }
 
@@ -476,13 +481,16 @@ constexpr errc check_response(const request& sent, std::span<const std::uint8_t>
 
 // The response PDU `pdu` to `sent`. An exception response gives the server's code as a
 // modbus::device_category() error; another function code errc::unexpected_type; a wrong
-// length, byte count or echo errc::malformed; a request of a function not in `Fs`
-// errc::invalid_argument.
+// length, byte count or echo errc::malformed; a request that encode_request<Fs>() refuses
+// (a function not in `Fs` among them) errc::invalid_argument.
 // This form fills `r` and returns the error (empty on success; `r` is then not to be used).
 template <function_set Fs = all_functions>
 std::error_code parse_response(const request& sent, std::span<const std::uint8_t> pdu,
                                response& r) noexcept {
-    const errc e = detail::check_response<Fs>(sent, pdu, r);
+    std::array<std::uint8_t, max_pdu> q;
+    const auto n = encode_request<Fs>(sent, q);
+    if (!n) return errc::invalid_argument;
+    const errc e = detail::check_response<Fs>(std::span<const std::uint8_t>(q.data(), *n), pdu, r);
     if (e != errc{}) return e;
     if (pdu[0] & exception_flag) return std::error_code(pdu[1], device_category());
     return {};
