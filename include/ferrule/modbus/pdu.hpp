@@ -420,14 +420,10 @@ constexpr errc check_response(std::span<const std::uint8_t> q, std::span<const s
     // `r` is written once the response has passed its checks.
     if (one_of<Fs, function::encapsulated_interface>(f)) {
         // 2B 0E code conformity more-follows(00/FF) next-object count objects… (AP §6.21)
-        if (pdu.size() < 7 || pdu[1] != mei_read_device_id || pdu[2] != q[2])
+        // The objects fill the PDU exactly: its length as framing computes it.
+        if (expected_response_length<Fs, false>(pdu) != pdu.size() || pdu[2] != q[2] ||
+            (pdu[4] != 0x00 && pdu[4] != 0xFF))
             return errc::malformed;
-        if (pdu[4] != 0x00 && pdu[4] != 0xFF) return errc::malformed;
-        std::span<const std::uint8_t> rest = pdu.subspan(7);
-        device_id_object o;
-        for (unsigned i = 0; i < pdu[6]; ++i)
-            if (!next_device_id_object(rest, o)) return errc::malformed;
-        if (!rest.empty()) return errc::malformed;
         r = {.function = f,
              .data = pdu.subspan(7),
              .quantity = pdu[6],
