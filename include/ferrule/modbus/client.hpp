@@ -121,7 +121,7 @@ public:
         if (rtu()) tx_size_ = seal_rtu(unit, tx_.data(), pdu_size_);
         attempts_ = 0;
         error_ = {};
-        response_ = {};
+        response_.data = {};
         rx_pdu_ = {};
         ++stats_.transactions;
         state_ = state::pending_send;
@@ -186,7 +186,8 @@ public:
     // modbus::device_category() exception code.
     std::error_code error() const noexcept { return error_; }
     // The response of a successful transaction; its data spans the session's buffer, valid
-    // until the next start().
+    // until the next start(). Read it only when error() is empty: after a failure its data
+    // is empty, its other fields are not to be used.
     const modbus::response& response() const noexcept { return response_; }
     // The PDU of the last response that answered the request (a normal or an exception
     // response), as received; empty when none did. Valid until the next start().
