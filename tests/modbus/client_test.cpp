@@ -104,6 +104,7 @@ TEST_CASE("modbus client read at 9600 8E1: wire time, server delay, then t3.5 be
     CHECK(peer.mismatches() == 0);
     CHECK(c.stats().transactions == 2);
     CHECK(c.stats().succeeded == 2);
+    CHECK(c.succeeded());
     CHECK(c.attempts() == 1);
     CHECK(bytes(c.request_bytes().begin(), c.request_bytes().end()) == read1);
 }
@@ -317,6 +318,7 @@ TEST_CASE("modbus client: exception responses are device errors, not resent",
     const auto ec = read_holding_registers(line, c, 1, 0, reg);
     CHECK(ec == exception_code::illegal_data_address);
     CHECK(ec.category() == device_category());
+    CHECK_FALSE(c.succeeded());
     CHECK(c.attempts() == 1);
     CHECK(c.stats().exceptions == 1);
     CHECK(c.stats().failed == 1);

@@ -73,7 +73,7 @@ int main() {
             }
             continue;
         }
-        const bool ok = !session.error();
+        const bool ok = session.succeeded();
         if (writing) {
             written = sending;
             setpoint_failed = !ok;

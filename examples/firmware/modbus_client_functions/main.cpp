@@ -141,7 +141,7 @@ int main() {
             if (!session.busy()) (void)session.start(unit, entry(i));
             continue;
         }
-        if (session.error())
+        if (!session.succeeded())
             failures = failures + 1;
         else
             take(i, session.response());

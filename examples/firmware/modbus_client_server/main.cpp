@@ -83,7 +83,7 @@ int main() {
             (void)client.start(1, q);
             continue;
         }
-        if (client.error()) {
+        if (!client.succeeded()) {
             drive_failures = drive_failures + 1;
         } else if (step == 0) {
             for (std::size_t k = 0; k < 8; ++k)

@@ -185,6 +185,9 @@ public:
     // a broadcast; otherwise the cause of the last failed attempt, a ferrule::errc or a
     // modbus::device_category() exception code.
     std::error_code error() const noexcept { return error_; }
+    // !error(), without making a std::error_code (firmware that only tells success from
+    // failure saves the conversion at each call).
+    bool succeeded() const noexcept { return !error_; }
     // The response of a successful transaction; its data spans the session's buffer, valid
     // until the next start(). Read it only when error() is empty: after a failure its data
     // is empty, its other fields are not to be used.
