@@ -115,7 +115,7 @@ public:
         pdu_size_ = *n;
         unit_ = unit;
         no_reply_ =
-            broadcast || (r.function == function::diagnostics &&
+            broadcast || (detail::one_of<Fs, function::diagnostics>(r.function) &&
                           r.value == static_cast<std::uint16_t>(diag_sub::force_listen_only));
         // TCP: the header is written at each attempt, with its transaction id.
         if (rtu()) tx_size_ = seal_rtu(unit, tx_.data(), pdu_size_);
@@ -282,7 +282,7 @@ private:
         else if (garbled())
             fail(decode_error_);
         else
-            fail(heard_ ? errc::malformed : errc::timeout);
+            fail(heard_ ? errc::malformed : errc::timeout); // TCP: a frame begun, not ended
     }
 
     // Takes bytes of the response until it is evaluated; returns how many.
@@ -304,7 +304,6 @@ private:
                     rx_.push(tx_[i], e);
                 if (state_ != state::awaiting) break;
             }
-            heard_ = true;
             rx_.push(in[used], e);
         }
         if (state_ == state::awaiting) rearm();
@@ -422,8 +421,10 @@ private:
     std::uint16_t transaction_ = 0;
     std::uint8_t unit_ = 0;
     bool no_reply_ = false;
-    bool gap_ = false;   // deadline_ is the inter-byte timeout's
-    bool heard_ = false; // bytes other than our echo since the request
+    bool gap_ = false; // deadline_ is the inter-byte timeout's
+    // TCP: bytes since the request (RTU: every byte other than our echo is in rx_ or has
+    // been evaluated or dropped by the deadline).
+    bool heard_ = false;
 };
 
 using client = basic_client<>;
