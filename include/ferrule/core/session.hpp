@@ -21,7 +21,7 @@ struct session_action {
     };
     kind what = kind::idle;
     bool discard_input = false;
-    time_point deadline = never;
+    time_point deadline{}; // kind::wait only
     std::span<const std::uint8_t> bytes{};
 
     static constexpr session_action idle() noexcept { return {}; }
@@ -31,7 +31,7 @@ struct session_action {
     }
     static constexpr session_action send(std::span<const std::uint8_t> b,
                                          bool discard_first) noexcept {
-        return {kind::send, discard_first, never, b};
+        return {kind::send, discard_first, {}, b};
     }
 };
 
