@@ -154,11 +154,12 @@ result<std::size_t> encode_request(const request& r, std::span<std::uint8_t> out
     std::size_t n = 5;                 // function code, then two 16-bit fields …
     std::uint16_t second = r.quantity; // … address and quantity, or address and value
     std::size_t data = 0;              // … then r.data, at the end
-    bool ok;
+    std::uint16_t limit = 0;           // of r.quantity (AP §6), checked with the address
+    bool ok = true;
     if (one_of<Fs, function::read_coils, function::read_discrete_inputs>(f)) {
-        ok = in(r.quantity, 1, max_read_bits) && fits(r.address, r.quantity);
+        limit = max_read_bits;
     } else if (one_of<Fs, function::read_holding_registers, function::read_input_registers>(f)) {
-        ok = in(r.quantity, 1, max_read_registers) && fits(r.address, r.quantity);
+        limit = max_read_registers;
     } else if (one_of<Fs, function::write_single_coil, function::write_single_register>(f)) {
         ok = f == function::write_single_register || r.value == coil_on || r.value == coil_off;
         second = r.value;
@@ -169,13 +170,13 @@ result<std::size_t> encode_request(const request& r, std::span<std::uint8_t> out
     } else if (one_of<Fs, function::write_multiple_coils, function::write_multiple_registers>(f)) {
         const bool coils = f == function::write_multiple_coils;
         data = coils ? packed_size(r.quantity) : 2u * r.quantity;
-        ok = in(r.quantity, 1, coils ? max_write_bits : max_write_registers) &&
-             fits(r.address, r.quantity) && r.data.size() == data;
+        limit = coils ? max_write_bits : max_write_registers;
+        ok = r.data.size() == data;
         n = 6; // and the byte count
     } else if (one_of<Fs, function::read_write_multiple_registers>(f)) {
         data = 2u * r.write_quantity;
-        ok = in(r.quantity, 1, max_read_registers) &&
-             in(r.write_quantity, 1, max_rw_write_registers) && fits(r.address, r.quantity) &&
+        limit = max_read_registers;
+        ok = in(r.write_quantity, 1, max_rw_write_registers) &&
              fits(r.write_address, r.write_quantity) && r.data.size() == data;
         n = 10; // write address, write quantity, byte count
     } else if (one_of<Fs, function::encapsulated_interface>(f)) {
@@ -184,6 +185,7 @@ result<std::size_t> encode_request(const request& r, std::span<std::uint8_t> out
     } else {
         ok = false;
     }
+    if (limit != 0) ok = ok && in(r.quantity, 1, limit) && fits(r.address, r.quantity);
     if (!ok) return errc::invalid_argument;
     if (out.size() < n + data) return errc::buffer_too_small;
     out[0] = static_cast<std::uint8_t>(f);
