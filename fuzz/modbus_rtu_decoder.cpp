@@ -27,11 +27,17 @@
 //   * parse_response() against a request of the same function code gives a response or an
 //     error of ferrule::errc / modbus::device_category(), never reads outside the PDU
 //   * conservation: after the silence, bytes consumed == bytes in frames + skipped()
+//   * rtu_receiver, the sessions' framing, pushed the same bytes one at a time and told the
+//     same silences, finds the same frames in the same order as a decoder of its mode
+//     (requests: this one; responses: basic_rtu_decoder<all_functions,
+//     rtu_frames::responses>, which like it frames no response of the codes outside
+//     `function`), and holds nothing after a silence
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <span>
+#include <vector>
 
 #include "ferrule/core/checksum.hpp"
 #include "ferrule/modbus/pdu.hpp"
@@ -83,14 +89,84 @@ void check_response(std::span<const std::uint8_t> pdu, std::span<const std::uint
                                       p->data.data() + p->data.size() <= pdu.data() + pdu.size()));
 }
 
+using frame_list = std::vector<std::vector<std::uint8_t>>; // address + PDU each
+
+// What an rtu_receiver hands its session.
+struct receiver_log {
+    frame_list frames;
+    bool on_frame(std::uint8_t address, std::span<const std::uint8_t> pdu) {
+        std::vector<std::uint8_t> f{address};
+        f.insert(f.end(), pdu.begin(), pdu.end());
+        frames.push_back(std::move(f));
+        return true;
+    }
+    void on_garbage(errc why) {
+        FERRULE_CHECK(why == errc::malformed || why == errc::bad_checksum);
+    }
+};
+
+// The responses decoder that frames what rtu_receiver<responses> frames, fed like `dec`.
+struct response_reference {
+    using decoder = basic_rtu_decoder<all_functions, rtu_frames::responses>;
+    decoder dec;
+    frame_list frames;
+
+    void take(const decoder::step& s) {
+        if (s.what != decoder::status::frame) return;
+        std::vector<std::uint8_t> f{dec.address()};
+        f.insert(f.end(), dec.pdu().begin(), dec.pdu().end());
+        frames.push_back(std::move(f));
+    }
+    void feed(std::span<const std::uint8_t> chunk) {
+        decoder::step s;
+        do {
+            s = dec.feed(chunk);
+            chunk = chunk.subspan(s.consumed);
+            take(s);
+        } while (s.what != decoder::status::need_more);
+    }
+    void silence() {
+        decoder::step s;
+        do {
+            s = dec.finish();
+            take(s);
+        } while (s.what != decoder::status::need_more);
+    }
+};
+
 struct harness {
     rtu_decoder dec;
     accept mode;
     std::array<std::uint8_t, 4096> fed{};
     std::size_t consumed = 0;
     std::size_t frame_bytes = 0;
+    frame_list frames; // dec's, in requests mode
+    rtu_receiver<rtu_frames::requests> request_rx;
+    rtu_receiver<rtu_frames::responses> response_rx;
+    receiver_log rx_log;
+    response_reference response_ref;
 
     explicit harness(accept m) : dec(m), mode(m) {}
+
+    // The receiver of this mode takes the bytes the decoder took; both have found the same
+    // frames so far.
+    void compare(std::span<const std::uint8_t> taken, bool at_silence) {
+        if (mode == accept::requests) {
+            for (const std::uint8_t b : taken) request_rx.push(b, rx_log);
+            if (at_silence) request_rx.finish(rx_log);
+            FERRULE_CHECK(rx_log.frames == frames);
+            if (at_silence) FERRULE_CHECK(request_rx.empty());
+        } else {
+            for (const std::uint8_t b : taken) response_rx.push(b, rx_log);
+            response_ref.feed(taken);
+            if (at_silence) {
+                response_rx.finish(rx_log);
+                response_ref.silence();
+            }
+            FERRULE_CHECK(rx_log.frames == response_ref.frames);
+            if (at_silence) FERRULE_CHECK(response_rx.empty());
+        }
+    }
 
     void on_frame(bool at_silence) {
         const auto adu = dec.adu();
@@ -104,6 +180,7 @@ struct harness {
         frame_bytes += adu.size();
         const auto pdu = dec.pdu();
         if (mode == accept::requests) {
+            frames.emplace_back(adu.begin(), adu.end() - 2);
             const std::size_t want = expected_request_length(pdu);
             FERRULE_CHECK(want == pdu.size() || (at_silence && want == no_frame));
             check_request(pdu);
@@ -127,6 +204,7 @@ struct harness {
     }
 
     void feed(std::span<const std::uint8_t> chunk) {
+        const std::span<const std::uint8_t> all = chunk;
         std::size_t idle = 0;
         rtu_decoder::step s;
         do {
@@ -141,6 +219,7 @@ struct harness {
             chunk = chunk.subspan(s.consumed);
             run(s, false);
         } while (s.what != status::need_more);
+        compare(all, false);
     }
 
     void silence() {
@@ -154,6 +233,7 @@ struct harness {
         } while (s.what != status::need_more);
         FERRULE_CHECK(!dec.in_frame());
         FERRULE_CHECK(consumed == frame_bytes + dec.skipped());
+        compare({}, true);
     }
 };
 
