@@ -140,6 +140,15 @@ TEST_CASE("modbus single writes FC5 and FC6 and their echoes", "[modbus][pdu]") 
     CHECK(parse_response(reg, bytes{0x06, 0x00, 0x01, 0x00}).error() == errc::malformed);
     CHECK(parse_response(coil, bytes{0x05, 0x00, 0xAC, 0x00, 0x00}));
     CHECK(parse_response(coil, bytes{0x05, 0x00, 0xAC, 0xFF, 0x00}).error() == errc::malformed);
+    // A response is checked against the request as it encodes: one that cannot be sent has
+    // no response.
+    request never_sent = reg;
+    never_sent.function = function::write_single_coil;
+    never_sent.value = 3; // FC 5 takes FF00 or 0000 only
+    CHECK(parse_response(never_sent, bytes{0x05, 0x00, 0x01, 0x00, 0x03}).error() ==
+          errc::invalid_argument);
+    CHECK(parse_response<functions<function::write_single_coil>>(reg, pdu).error() ==
+          errc::invalid_argument);
 }
 
 TEST_CASE("modbus FC15 write multiple coils: byte count, limits, echo", "[modbus][pdu]") {
