@@ -380,13 +380,20 @@ constexpr std::uint8_t request_exception(std::span<const std::uint8_t> pdu) noex
     return code == detail::not_a_request ? 0 : code;
 }
 
+namespace detail {
+// [FC | 0x80][code] (AP §7) into `out`, which holds 2 bytes; returns 2.
+constexpr std::size_t write_exception(function fc, std::uint8_t code, std::uint8_t* out) noexcept {
+    out[0] = static_cast<std::uint8_t>(static_cast<std::uint8_t>(fc) | exception_flag);
+    out[1] = code;
+    return 2;
+}
+} // namespace detail
+
 // [FC | 0x80][code] (AP §7).
 inline result<std::size_t> encode_exception(function fc, exception_code code,
                                             std::span<std::uint8_t> out) noexcept {
     if (out.size() < 2) return errc::buffer_too_small;
-    out[0] = static_cast<std::uint8_t>(static_cast<std::uint8_t>(fc) | exception_flag);
-    out[1] = static_cast<std::uint8_t>(code);
-    return std::size_t{2};
+    return detail::write_exception(fc, static_cast<std::uint8_t>(code), out.data());
 }
 
 // One object of a Read Device Identification response (AP §6.21).

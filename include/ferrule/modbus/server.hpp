@@ -413,9 +413,7 @@ private:
 
     static std::size_t exception(function fc, std::uint8_t code,
                                  std::span<std::uint8_t> out) noexcept {
-        out[0] = static_cast<std::uint8_t>(static_cast<std::uint8_t>(fc) | exception_flag);
-        out[1] = code;
-        return 2;
+        return detail::write_exception(fc, code, out.data());
     }
     // [FC][byte count][n bytes already in place]
     static std::size_t counted(function fc, std::uint8_t n, std::span<std::uint8_t> out) noexcept {
