@@ -106,3 +106,84 @@ TEST_CASE("modbus tcp_decoder: bad protocol id or length is malformed, then resy
     d.reset();
     CHECK_FALSE(d.in_frame());
 }
+
+namespace {
+
+// Feeds `in` to a framer `chunk` bytes at a time; the ADUs ended and the bytes taken in all.
+mbap_framer::scan frame_all(mbap_framer& f, const bytes& in, std::size_t chunk) {
+    mbap_framer::scan all;
+    std::span<const std::uint8_t> rest(in);
+    while (!rest.empty()) {
+        const auto part = rest.first(std::min(chunk, rest.size()));
+        const auto s = f.feed(part);
+        all.ended += s.ended;
+        all.taken += s.taken;
+        rest = rest.subspan(part.size());
+    }
+    return all;
+}
+
+} // namespace
+
+TEST_CASE("modbus mbap_framer finds where ADUs end in any chunking", "[modbus][tcp]") {
+    bytes stream;
+    std::vector<std::size_t> ends;
+    for (std::uint16_t t = 1; t <= 5; ++t) {
+        const auto f = tcp(t, 1, bytes(t * 50, 0x03)); // PDUs of 50 … 250 bytes
+        stream.insert(stream.end(), f.begin(), f.end());
+        ends.push_back(stream.size());
+    }
+    for (std::size_t chunk : {std::size_t{1}, std::size_t{7}, std::size_t{512}}) {
+        INFO("chunks of " << chunk);
+        mbap_framer f;
+        const auto s = frame_all(f, stream, chunk);
+        CHECK(s.ended == 5);
+        CHECK(s.taken == stream.size());
+        CHECK_FALSE(f.in_adu());
+        CHECK_FALSE(f.bad());
+    }
+    // Where each ADU ends: the byte before leaves it under way, its last byte ends it.
+    mbap_framer f;
+    std::size_t at = 0;
+    for (const std::size_t end : ends) {
+        CHECK(f.feed(std::span<const std::uint8_t>(stream).subspan(at, end - 1 - at)).ended == 0);
+        CHECK(f.in_adu());
+        CHECK(f.feed(std::span<const std::uint8_t>(stream).subspan(end - 1, 1)).ended == 1);
+        CHECK_FALSE(f.in_adu());
+        at = end;
+    }
+}
+
+TEST_CASE("modbus mbap_framer stops at a header no ADU starts with", "[modbus][tcp]") {
+    const auto good = tcp(7, 1, {0x03, 0x00, 0x01, 0x00, 0x03});
+    struct bad_case {
+        bytes header;
+        std::size_t judged_at; // bytes of it read when it is found bad
+    };
+    for (const auto& [bad, judged_at] :
+         {bad_case{{0x00, 0x01, 0x00, 0x01, 0x00, 0x06}, 4}, // protocol 1
+          bad_case{{0x00, 0x01, 0x00, 0x00, 0x00, 0x01}, 6}, // length 1
+          bad_case{{0x00, 0x01, 0x00, 0x00, 0x00, 0xFF}, 6}, // length 255
+          bad_case{{0x00, 0x00, 0x00, 0x00, 0x00, 0x00}, 6}}) {
+        INFO("header " << int(bad[2]) << int(bad[3]) << " " << int(bad[5]));
+        bytes stream = good;
+        stream.insert(stream.end(), bad.begin(), bad.end());
+        stream.insert(stream.end(), good.begin(), good.end());
+
+        // In one chunk: the ADU before it is taken, nothing from the bad header on.
+        mbap_framer one;
+        const auto s = one.feed(stream);
+        CHECK(s.ended == 1);
+        CHECK(s.taken == good.size());
+        CHECK(one.bad());
+        CHECK(one.feed(good).taken == 0);
+
+        // Byte by byte: it is judged as soon as the field in question is in.
+        mbap_framer bytewise;
+        std::size_t taken = 0;
+        for (std::size_t i = 0; i < stream.size() && !bytewise.bad(); ++i)
+            taken += bytewise.feed(std::span<const std::uint8_t>(stream).subspan(i, 1)).taken;
+        CHECK(bytewise.bad());
+        CHECK(taken == good.size() + judged_at - 1); // the header's bytes before were taken
+    }
+}
