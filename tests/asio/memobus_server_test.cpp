@@ -1,5 +1,6 @@
 // memobus_server on loopback: many masters at once, each on its own channel, while others
-// misbehave; the channel limit, the idle timeout, per-channel offsets, and UDP peers. The
+// misbehave; the channel limit, the idle timeout, the request deadline, per-channel offsets,
+// and UDP peers. The
 // server runs on its own io_context thread; each master is a blocking socket on its own
 // thread, building requests with encode_command and checking replies with parse_response.
 #include <catch2/catch.hpp>
@@ -112,6 +113,30 @@ struct tcp_master {
         const auto r = line.read_some(b, line.now() + 2s);
         return r.bytes == 0 && r.ec && r.ec != make_error_code(errc::timeout);
     }
+
+    // Waits up to `wait` for the server to close the connection, dropping what it sends.
+    bool closed_within(duration wait) {
+        const time_point deadline = line.now() + wait;
+        for (;;) {
+            std::array<std::uint8_t, 256> b{};
+            const auto r = line.read_some(b, deadline);
+            if (r.ec == make_error_code(errc::timeout)) return false;
+            if (r.bytes == 0) return true;
+        }
+    }
+
+    // Sends `bytes` one at a time, `interval` apart, round and round, until the server closes
+    // the connection; false when it has not by `deadline`. The wait between two bytes is a
+    // wait for the close.
+    bool drip_until_closed(std::span<const std::uint8_t> bytes, duration interval,
+                           time_point deadline) {
+        for (std::size_t i = 0; before(line.now(), deadline); ++i) {
+            std::error_code ec;
+            asio::write(socket, asio::buffer(&bytes[i % bytes.size()], 1), ec);
+            if (ec || closed_within(interval)) return true;
+        }
+        return false;
+    }
 };
 
 // Writes a block of its own with SFC 0B and reads it back with SFC 09, `rounds` times;
@@ -172,6 +197,7 @@ TEST_CASE("memobus server: many masters at once, each on its own channel, while 
     constexpr int rounds = 20;
     host::memobus_server_options o;
     o.max_channels = static_cast<std::size_t>(masters + misbehaving);
+    o.request_timeout = duration::zero(); // the misbehaving stay for the whole run
     running_server s(o);
 
     // Half a header, then silence.
@@ -294,6 +320,55 @@ TEST_CASE("memobus server: closes a silent channel after idle_timeout", "[asio][
     CHECK(s.server.stats().idle_closed == 1);
     tcp_master again(s.server.port()); // a new connection is served as usual
     CHECK(again.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+}
+
+// Four masters sending a byte every 2 s held every channel of a 218IFA through a whole run
+// while any byte reset the idle timeout. A message must be complete request_timeout after its
+// first byte.
+TEST_CASE("memobus server: masters that drip bytes on every channel are closed, and a fifth "
+          "gets a channel",
+          "[asio][memobus]") {
+    host::memobus_server_options o;
+    o.max_channels = 4;
+    o.idle_timeout = 500ms;
+    o.request_timeout = 200ms;
+    running_server s(o);
+    std::array<std::uint8_t, mb::max_message> command{};
+    const auto n = mb::encode_command(make(mb::sfc::read_holding_registers_ext, 0, 4), 0, command);
+    REQUIRE(n);
+
+    // Each drips a well-formed command, a byte every 100 ms: 2.2 s for its 22 bytes.
+    std::vector<std::unique_ptr<tcp_master>> drippers;
+    for (int i = 0; i < 4; ++i) drippers.push_back(std::make_unique<tcp_master>(s.server.port()));
+    std::atomic<int> closed{0};
+    std::vector<std::thread> threads;
+    const time_point deadline = host::steady_now() + 3s;
+    for (auto& d : drippers)
+        threads.emplace_back([&, m = d.get()] {
+            if (m->drip_until_closed({command.data(), *n}, 100ms, deadline)) ++closed;
+        });
+    for (auto& t : threads) t.join();
+    CHECK(closed == 4);
+    CHECK(s.server.stats().request_timeouts == 4);
+    CHECK(s.server.stats().idle_closed == 0);
+
+    tcp_master fifth(s.server.port());
+    CHECK(fifth.transact(make(mb::sfc::read_holding_registers_ext, 0, 4)));
+    CHECK(s.server.stats().refused == 0);
+}
+
+// Bytes that form no message are dropped by the decoder, and timed as a request all the same.
+TEST_CASE("memobus server: closes a master that sends only bytes forming no message",
+          "[asio][memobus]") {
+    host::memobus_server_options o;
+    o.idle_timeout = 60s;
+    o.request_timeout = 200ms;
+    running_server s(o);
+    tcp_master garbage(s.server.port());
+    const std::array<std::uint8_t, 4> noise{0xA5, 0x5A, 0xC3, 0x3C};
+    CHECK(garbage.drip_until_closed(noise, 50ms, host::steady_now() + 3s));
+    CHECK(s.server.stats().request_timeouts == 1);
+    CHECK(s.server.channel_stats(0).malformed >= 1);
 }
 
 TEST_CASE("memobus server: each channel has its own offsets and write range", "[asio][memobus]") {

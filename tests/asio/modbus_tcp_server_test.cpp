@@ -1,6 +1,7 @@
 // modbus_tcp_server on loopback: many clients at once, a stalled client, the connection
-// limit and the idle timeout. The server runs on its own io_context thread; the clients are
-// ferrule's blocking Modbus TCP clients.
+// limit, the idle timeout and the request deadline. The server runs on its
+// own io_context thread; the clients are ferrule's blocking Modbus TCP clients, or blocking
+// sockets that send bytes of their own.
 #include <catch2/catch.hpp>
 
 #include <asio/io_context.hpp>
@@ -9,7 +10,10 @@
 #include <asio/write.hpp>
 
 #include <array>
+#include <atomic>
 #include <chrono>
+#include <memory>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -71,7 +75,56 @@ struct tcp_client {
         const auto r = line.read_some(b, line.now() + 2s);
         return r.bytes == 0 && r.ec && r.ec != make_error_code(errc::timeout);
     }
+
+    void send(std::span<const std::uint8_t> bytes) {
+        asio::write(socket, asio::buffer(bytes.data(), bytes.size()));
+    }
+
+    // What the server sends until it closes the connection; nothing when it has not closed
+    // it by `deadline`.
+    std::optional<std::vector<std::uint8_t>> read_until_closed(time_point deadline) {
+        std::vector<std::uint8_t> got;
+        for (;;) {
+            std::array<std::uint8_t, 256> b{};
+            const auto r = line.read_some(b, deadline);
+            if (r.ec == make_error_code(errc::timeout)) return std::nullopt;
+            if (r.bytes == 0) return got;
+            got.insert(got.end(), b.begin(), b.begin() + static_cast<std::ptrdiff_t>(r.bytes));
+        }
+    }
+
+    // Waits up to `wait` for the server to close the connection, dropping what it sends.
+    bool closed_within(duration wait) { return read_until_closed(line.now() + wait).has_value(); }
+
+    // Sends `bytes` one at a time, `interval` apart, round and round, until the server closes
+    // the connection; false when it has not by `deadline`. The wait between two bytes is a
+    // wait for the close.
+    bool drip_until_closed(std::span<const std::uint8_t> bytes, duration interval,
+                           time_point deadline) {
+        for (std::size_t i = 0; before(line.now(), deadline); ++i) {
+            std::error_code ec;
+            asio::write(socket, asio::buffer(&bytes[i % bytes.size()], 1), ec);
+            if (ec || closed_within(interval)) return true;
+        }
+        return false;
+    }
 };
+
+// FC 3, one holding register from `address`, unit 1, with transaction `t`.
+std::array<std::uint8_t, 12> read_request(std::uint16_t t, std::uint8_t address = 0) {
+    return {static_cast<std::uint8_t>(t >> 8),
+            static_cast<std::uint8_t>(t),
+            0,
+            0,
+            0,
+            6,
+            1,
+            3,
+            0,
+            address,
+            0,
+            1};
+}
 
 } // namespace
 
@@ -232,4 +285,86 @@ TEST_CASE("modbus client: many callers share one connection through async_driver
         CHECK(results[static_cast<std::size_t>(i)].second == 100 + i % 16);
     }
     CHECK(c.stats().succeeded == callers);
+}
+
+// A client that sends a byte now and then kept its connection for ever while any byte reset
+// the idle timeout: four of them held every connection. A request must be complete
+// request_timeout after its first byte.
+TEST_CASE("modbus tcp server closes clients that drip bytes on every connection, and serves "
+          "a new one",
+          "[asio][modbus]") {
+    host::modbus_tcp_server_options o;
+    o.max_connections = 4;
+    o.idle_timeout = 500ms;
+    o.request_timeout = 200ms;
+    running_server s(o);
+
+    // Each drips a well-formed request, a byte every 100 ms: 1.2 s for the 12 bytes.
+    std::vector<std::unique_ptr<tcp_client>> drippers;
+    for (int i = 0; i < 4; ++i) drippers.push_back(std::make_unique<tcp_client>(s.server.port()));
+    std::atomic<int> closed{0};
+    std::vector<std::thread> threads;
+    const time_point deadline = host::steady_now() + 3s;
+    for (auto& d : drippers)
+        threads.emplace_back([&, c = d.get()] {
+            if (c->drip_until_closed(read_request(1), 100ms, deadline)) ++closed;
+        });
+    for (auto& t : threads) t.join();
+    CHECK(closed == 4);
+    CHECK(s.server.stats().request_timeouts == 4);
+    CHECK(s.server.stats().idle_closed == 0);
+
+    tcp_client fifth(s.server.port());
+    std::array<std::uint16_t, 4> regs{};
+    CHECK_FALSE(fifth.read(regs));
+    CHECK(regs == std::array<std::uint16_t, 4>{100, 101, 102, 103});
+}
+
+// Bytes of a request that never completes do not keep a connection open past the idle
+// timeout, counted from the last complete request (here with no request deadline at all).
+TEST_CASE("modbus tcp server counts the idle timeout from the last complete request",
+          "[asio][modbus]") {
+    host::modbus_tcp_server_options o;
+    o.idle_timeout = 500ms;
+    o.request_timeout = duration::zero();
+    running_server s(o);
+    tcp_client c(s.server.port());
+    std::array<std::uint16_t, 4> regs{};
+    REQUIRE_FALSE(c.read(regs));
+    const time_point answered = host::steady_now();
+    CHECK(c.drip_until_closed(read_request(2), 100ms, answered + 3s));
+    CHECK(host::steady_now() - answered >= 450ms); // 500 ms from the request, read before
+    CHECK(s.server.stats().idle_closed == 1);
+    CHECK(s.server.stats().request_timeouts == 0);
+}
+
+// A client whose requests come in two parts is not closed while each part follows in time,
+// for longer than both limits.
+TEST_CASE("modbus tcp server keeps a client whose requests are slow but complete in time",
+          "[asio][modbus]") {
+    host::modbus_tcp_server_options o;
+    o.idle_timeout = 600ms;
+    o.request_timeout = 300ms;
+    running_server s(o);
+    tcp_client c(s.server.port());
+    const time_point start = host::steady_now();
+    for (std::uint16_t t = 1; t <= 8; ++t) {
+        const auto r = read_request(t, static_cast<std::uint8_t>(t));
+        c.send(std::span(r).first(5));
+        REQUIRE_FALSE(c.closed_within(50ms));
+        c.send(std::span(r).subspan(5));
+        std::array<std::uint8_t, 11> reply{};
+        std::size_t got = 0;
+        while (got < reply.size()) {
+            const auto n = c.line.read_some(std::span(reply).subspan(got), c.line.now() + 2s);
+            REQUIRE_FALSE(n.ec);
+            got += n.bytes;
+        }
+        CHECK(reply[1] == t);
+        CHECK((reply[9] << 8 | reply[10]) == 100 + t);
+        REQUIRE_FALSE(c.closed_within(200ms));
+    }
+    CHECK(host::steady_now() - start > 1s);
+    CHECK(s.server.stats().replies == 8);
+    CHECK(s.server.stats().request_timeouts + s.server.stats().idle_closed == 0);
 }

@@ -14,7 +14,9 @@
 //     header or a header announcing 65535 bytes disturbs only its own channel: its decoder
 //     resynchronises (max_message bounds what it waits for) or waits while the others are
 //     served. Requests are answered in order, pipelined ones too (§6 assumes none). A
-//     connection that sends nothing for `idle_timeout` is closed
+//     connection is closed when no message has completed for `idle_timeout`, or when one is
+//     not complete `request_timeout` after its first byte (bytes that form no message count
+//     as one), so a master that sends a byte now and then holds no channel
 //   * UDP: one datagram is one message (§6); a peer silent for `idle_timeout` gives up its
 //     channel when another peer or a TCP connection needs it. A reply the socket does not take at
 //     once is dropped (and counted), as a datagram may be
@@ -55,6 +57,10 @@ struct memobus_server_options {
     duration idle_timeout = std::chrono::seconds(60); // zero: never
     memobus::channel_config channel{};                // every channel without its own
     std::vector<memobus::channel_config> channels{};  // channel i's, i = 0, 1, …
+    // TCP: from a message's first byte to its last (zero: never); as Modbus TCP's
+    // (modbus_tcp_server_options): a message fits a segment or a few, 2 s allow a
+    // retransmission.
+    duration request_timeout = std::chrono::seconds(2);
 };
 
 // Counted on the server's thread, readable from any other.
@@ -67,6 +73,8 @@ struct memobus_server_stats {
     std::atomic<std::uint64_t> udp_dropped{0}; // datagrams of peers over max_channels
     std::atomic<std::uint64_t> udp_unsent{0};  // replies the UDP socket did not take
     std::atomic<std::uint64_t> replies{0};
+    // TCP connections closed with a message not complete request_timeout after its first byte
+    std::atomic<std::uint64_t> request_timeouts{0};
 };
 
 // One channel's counts over every connection or peer it has served (channel_stats()).
@@ -225,6 +233,8 @@ private:
         friend base;
         using base::backlogged;
         using base::read_on;
+        using base::request_begun;
+        using base::request_completed;
         using base::send;
         using base::socket_;
         using base::unused;
@@ -240,14 +250,18 @@ private:
 
     private:
         // Frames what was read and answers each message, until all is used or the replies
-        // back up; reads on when all is used.
+        // back up; reads on when all is used. The bytes since the last message, whether they
+        // begin one or form none, are timed as a request.
         void feed() {
+            using status = memobus::message_decoder::status;
             while (!unused().empty() && !backlogged()) {
                 const auto s = decoder_.feed(unused());
                 use(s.consumed);
-                if (s.what == memobus::message_decoder::status::error)
-                    ++owner_.slots_[channel_].malformed;
-                if (s.what != memobus::message_decoder::status::frame) continue;
+                if (s.what == status::error) ++owner_.slots_[channel_].malformed;
+                if (s.what == status::frame) request_completed();
+                if (decoder_.in_message() || (s.what != status::frame && s.consumed > 0))
+                    request_begun();
+                if (s.what != status::frame) continue;
                 const std::size_t n = session_.handle(owner_, channel_, decoder_.message(), tx_);
                 if (n > 0) send({tx_.data(), n});
                 if (!socket_.is_open()) return;
@@ -255,10 +269,10 @@ private:
             read_on();
         }
 
-        void end(bool idle) {
+        void end(close_reason why) {
             if (!socket_.is_open()) return;
             // Counted before the close that the master sees.
-            ++(idle ? owner_.stats_.idle_closed : owner_.stats_.closed);
+            ++owner_.counter(why);
             shut();
             owner_.release(channel_);
             owner_.forget(this);
@@ -271,6 +285,17 @@ private:
         std::array<std::uint8_t, memobus::max_message> tx_{};
     };
 
+    // The count of TCP connections closed for `why`.
+    std::atomic<std::uint64_t>& counter(close_reason why) noexcept {
+        switch (why) {
+        case close_reason::refused: return stats_.refused;
+        case close_reason::idle: return stats_.idle_closed;
+        case close_reason::request_timeout: return stats_.request_timeouts;
+        case close_reason::peer: break;
+        }
+        return stats_.closed;
+    }
+
     void accept() {
         acceptor_.async_accept([this](std::error_code ec, ::asio::ip::tcp::socket socket) {
             if (ec == ::asio::error::operation_aborted || !acceptor_.is_open()) return;
@@ -279,9 +304,9 @@ private:
                     ++stats_.accepted;
                     auto c = std::make_shared<connection>(*this, std::move(socket), *channel);
                     connections_.push_back(c);
-                    c->start(options_.idle_timeout);
+                    c->start({options_.idle_timeout, options_.request_timeout});
                 } else {
-                    ++stats_.refused;
+                    ++counter(close_reason::refused);
                     std::error_code ignored;
                     socket.close(ignored);
                 }

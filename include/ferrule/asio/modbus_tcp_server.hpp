@@ -7,8 +7,11 @@
 //   * at most `max_connections` at once; a connection beyond that is accepted and closed at
 //     once (the guide §4.2.1 leaves the number to the server: a closed connection tells the
 //     client, a connection left in the backlog would not)
-//   * a connection that sends nothing for `idle_timeout` is closed (§4.2.1: the server may
-//     close connections it considers idle)
+//   * requests are framed by their MBAP headers as the bytes come (mbap_framer); a
+//     connection is closed when a request is not complete `request_timeout` after its first
+//     byte, or when no request has completed for `idle_timeout` (§4.2.1: the server may close
+//     connections it considers idle), so a client that sends a byte now and then holds no
+//     connection; bytes alone reset neither
 //   * replies go out in the order of the requests, `processing_time` after each request
 //     (0: at once); a reply is sent straight from the session's buffer, and only the part
 //     the socket does not take at once is copied to wait for it
@@ -36,21 +39,29 @@
 #include "ferrule/modbus/data_model.hpp"
 #include "ferrule/modbus/model_ref.hpp"
 #include "ferrule/modbus/server.hpp"
+#include "ferrule/modbus/tcp.hpp"
 
 namespace ferrule::host {
 
 struct modbus_tcp_server_options {
     std::size_t max_connections = 64;
     duration idle_timeout = std::chrono::seconds(60); // zero: never
+    // From a request's first byte to its last (zero: never). No Modbus document gives one. A
+    // request fits one TCP segment, so a sound client sends it at once; 2 s leave room for a
+    // lost segment's retransmission (200 ms at the least on Linux, 1 s at first). libmodbus,
+    // as a server too, allows 0.5 s between two bytes (its byte timeout, protocols/
+    // modbus_profibus.md §A.3, §C.1).
+    duration request_timeout = std::chrono::seconds(2);
     duration processing_time{};
 };
 
 // Counted on the server's thread, readable from any other.
 struct modbus_tcp_server_stats {
     std::atomic<std::uint64_t> accepted{0};
-    std::atomic<std::uint64_t> refused{0};     // over max_connections
-    std::atomic<std::uint64_t> idle_closed{0}; // closed after idle_timeout
-    std::atomic<std::uint64_t> closed{0};      // by the client, or after an I/O error
+    std::atomic<std::uint64_t> refused{0};          // over max_connections
+    std::atomic<std::uint64_t> idle_closed{0};      // no complete request for idle_timeout
+    std::atomic<std::uint64_t> request_timeouts{0}; // a request not complete in request_timeout
+    std::atomic<std::uint64_t> closed{0};           // by the client, or after an I/O error
     std::atomic<std::uint64_t> replies{0};
 };
 
@@ -97,8 +108,10 @@ private:
     class connection : public server_connection<connection> {
         using base = server_connection<connection>;
         friend base;
-        using base::idle_;
         using base::read_on;
+        using base::received_at;
+        using base::request_begun;
+        using base::request_completed;
         using base::send;
         using base::socket_;
         using base::unused;
@@ -122,6 +135,12 @@ private:
             return c;
         }
 
+        // Times the requests as their bytes come, by their MBAP headers.
+        void received(std::span<const std::uint8_t> bytes) {
+            if (framer_.feed(bytes).ended > 0) request_completed();
+            if (framer_.in_adu()) request_begun();
+        }
+
         // Gives the session what it can take: a chunk no larger than it holds behind a
         // request, and only while no reply is waiting, so that a client sending many requests
         // at once (guide §3.1.2 lets it) loses none. Reads on when all is fed, unless replies
@@ -130,7 +149,7 @@ private:
             while (!unused().empty() && session_.wake_at() == never) {
                 const auto bytes =
                     unused().first(std::min(unused().size(), session_type::held_capacity));
-                session_.on_receive(bytes, idle_.last());
+                session_.on_receive(bytes, received_at());
                 use(bytes.size());
                 pump();
                 if (!socket_.is_open()) return;
@@ -162,10 +181,10 @@ private:
             }
         }
 
-        void end(bool idle) {
+        void end(close_reason why) {
             if (!socket_.is_open()) return;
             // Counted before the close that the client sees.
-            ++(idle ? owner_.stats_.idle_closed : owner_.stats_.closed);
+            ++owner_.counter(why);
             shut();
             owner_.forget(this);
         }
@@ -173,21 +192,33 @@ private:
         modbus_tcp_server& owner_;
         ::asio::steady_timer reply_timer_;
         session_type session_;
+        modbus::mbap_framer framer_;
     };
+
+    // The count of connections closed for `why`.
+    std::atomic<std::uint64_t>& counter(close_reason why) noexcept {
+        switch (why) {
+        case close_reason::refused: return stats_.refused;
+        case close_reason::idle: return stats_.idle_closed;
+        case close_reason::request_timeout: return stats_.request_timeouts;
+        case close_reason::peer: break;
+        }
+        return stats_.closed;
+    }
 
     void accept() {
         acceptor_.async_accept([this](std::error_code ec, ::asio::ip::tcp::socket socket) {
             if (ec == ::asio::error::operation_aborted || !acceptor_.is_open()) return;
             if (!ec) {
                 if (connections_.size() >= options_.max_connections) {
-                    ++stats_.refused;
+                    ++counter(close_reason::refused);
                     std::error_code ignored;
                     socket.close(ignored);
                 } else {
                     ++stats_.accepted;
                     auto c = std::make_shared<connection>(*this, std::move(socket));
                     connections_.push_back(c);
-                    c->start(options_.idle_timeout);
+                    c->start({options_.idle_timeout, options_.request_timeout});
                 }
             }
             accept();
