@@ -1,5 +1,5 @@
 // modbus_tcp_server on loopback: many clients at once, a stalled client, the connection
-// limit, the idle timeout and the request deadline. The server runs on its
+// limit, the idle timeout, the request deadline and bad MBAP headers. The server runs on its
 // own io_context thread; the clients are ferrule's blocking Modbus TCP clients, or blocking
 // sockets that send bytes of their own.
 #include <catch2/catch.hpp>
@@ -12,6 +12,7 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <thread>
@@ -125,6 +126,20 @@ std::array<std::uint8_t, 12> read_request(std::uint16_t t, std::uint8_t address 
             0,
             1};
 }
+
+// Counts the connections the server reports closing or refusing, by reason.
+struct close_reports {
+    std::array<std::atomic<int>, 5> by_reason{};
+
+    std::function<void(const asio::ip::tcp::endpoint&, host::close_reason)> hook() {
+        return [this](const asio::ip::tcp::endpoint&, host::close_reason why) {
+            ++by_reason[static_cast<std::size_t>(why)];
+        };
+    }
+    int operator[](host::close_reason why) const {
+        return by_reason[static_cast<std::size_t>(why)].load();
+    }
+};
 
 } // namespace
 
@@ -293,10 +308,12 @@ TEST_CASE("modbus client: many callers share one connection through async_driver
 TEST_CASE("modbus tcp server closes clients that drip bytes on every connection, and serves "
           "a new one",
           "[asio][modbus]") {
+    close_reports reports;
     host::modbus_tcp_server_options o;
     o.max_connections = 4;
     o.idle_timeout = 500ms;
     o.request_timeout = 200ms;
+    o.on_close = reports.hook();
     running_server s(o);
 
     // Each drips a well-formed request, a byte every 100 ms: 1.2 s for the 12 bytes.
@@ -312,6 +329,7 @@ TEST_CASE("modbus tcp server closes clients that drip bytes on every connection,
     for (auto& t : threads) t.join();
     CHECK(closed == 4);
     CHECK(s.server.stats().request_timeouts == 4);
+    CHECK(reports[host::close_reason::request_timeout] == 4);
     CHECK(s.server.stats().idle_closed == 0);
 
     tcp_client fifth(s.server.port());
@@ -367,4 +385,56 @@ TEST_CASE("modbus tcp server keeps a client whose requests are slow but complete
     CHECK(host::steady_now() - start > 1s);
     CHECK(s.server.stats().replies == 8);
     CHECK(s.server.stats().request_timeouts + s.server.stats().idle_closed == 0);
+}
+
+// A server that resynchronised one byte at a time after eight zero bytes took the requests
+// behind them for the rest of a frame and never answered them; the client only timed out.
+// A header that no request starts with ends the connection, once the requests before it are
+// answered. Neither timeout can end it within the checks' deadline.
+TEST_CASE("modbus tcp server closes a connection at an MBAP header no request starts with",
+          "[asio][modbus]") {
+    close_reports reports;
+    host::modbus_tcp_server_options o;
+    o.idle_timeout = 60s;
+    o.request_timeout = 10s;
+    o.processing_time = GENERATE(0ms, 20ms);
+    o.on_close = reports.hook();
+    running_server s(o);
+    using bytes = std::vector<std::uint8_t>;
+    const auto append = [](bytes& to, std::span<const std::uint8_t> b) {
+        to.insert(to.end(), b.begin(), b.end());
+    };
+
+    // Eight zero bytes, then requests: no reply, the connection closed.
+    tcp_client zeros(s.server.port());
+    bytes out(8, 0);
+    for (std::uint16_t t = 1; t <= 6; ++t) append(out, read_request(t));
+    zeros.send(out);
+    const auto after_zeros = zeros.read_until_closed(host::steady_now() + 1s);
+    REQUIRE(after_zeros);
+    CHECK(after_zeros->empty());
+
+    // Two requests, four stray zero bytes, a request (transaction 1: with the zeros a header
+    // of length 1): the two answered, then the close.
+    tcp_client stray(s.server.port());
+    out.clear();
+    append(out, read_request(7, 7));
+    append(out, read_request(8, 8));
+    append(out, bytes(4, 0));
+    append(out, read_request(1));
+    stray.send(out);
+    const auto after_stray = stray.read_until_closed(host::steady_now() + 1s);
+    REQUIRE(after_stray);
+    REQUIRE(after_stray->size() == 22);
+    CHECK((*after_stray)[1] == 7);
+    CHECK(((*after_stray)[9] << 8 | (*after_stray)[10]) == 107);
+    CHECK((*after_stray)[12] == 8);
+    CHECK(((*after_stray)[20] << 8 | (*after_stray)[21]) == 108);
+
+    CHECK(s.server.stats().bad_headers == 2);
+    CHECK(reports[host::close_reason::unframeable] == 2);
+    CHECK(s.server.stats().replies == 2);
+    tcp_client again(s.server.port()); // the client reconnects and is served
+    std::array<std::uint16_t, 4> regs{};
+    CHECK_FALSE(again.read(regs));
 }

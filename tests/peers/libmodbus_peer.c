@@ -4,6 +4,10 @@
  *   libmodbus_peer tcp-server PORT       serve the peer map on 127.0.0.1:PORT
  *   libmodbus_peer rtu-client TTY UNIT   check a server of the peer map, every function
  *   libmodbus_peer tcp-client PORT UNIT  the same over TCP on 127.0.0.1
+ *   libmodbus_peer tcp-client-stray-zeros PORT UNIT
+ *                                        eight zero bytes on the connection between two
+ *                                        requests: the server closes it at once, libmodbus
+ *                                        connects again, and the requests after it succeed
  *
  * The peer map is the same on both sides (tests/peers/README.md):
  *   coils 0-99: bit i = (i % 3 == 0)     discrete inputs 0-99: bit i = (i % 2 == 1)
@@ -21,6 +25,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 enum { map_size = 100 };
@@ -196,10 +201,58 @@ static int client(modbus_t* ctx, int unit, int extras) {
     return failed ? 1 : 0;
 }
 
+static long ms_since(const struct timespec* t0) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (t.tv_sec - t0->tv_sec) * 1000 + (t.tv_nsec - t0->tv_nsec) / 1000000;
+}
+
+/* Eight zero bytes form an MBAP header of length 0, which starts no request: a server that
+ * resynchronises byte by byte takes the request behind them for part of a frame and never
+ * answers it, so the client times out; a server that closes the connection lets libmodbus's
+ * link recovery connect again at once. */
+static int stray_zeros(modbus_t* ctx, int unit) {
+    char why[160];
+    uint16_t regs[10];
+    modbus_set_slave(ctx, unit);
+    modbus_set_response_timeout(ctx, 2, 0);
+    modbus_set_error_recovery(ctx, MODBUS_ERROR_RECOVERY_LINK);
+
+    /* Transaction 1; the one after the zeros is 2, with which they frame as a header. */
+    int rc = modbus_read_registers(ctx, 0, 10, regs);
+    check("FC3 before the stray bytes", rc == 10 && regs[9] == 0x1000 + 9, modbus_strerror(errno));
+
+    static const uint8_t zeros[8];
+    const ssize_t written = write(modbus_get_socket(ctx), zeros, sizeof zeros);
+    check("eight zero bytes written on the connection", written == (ssize_t)sizeof zeros,
+          strerror(errno));
+
+    struct timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    rc = modbus_read_registers(ctx, 0, 10, regs);
+    const int err = errno;
+    snprintf(why, sizeof why, "rc %d (%s) after %ld ms", rc, modbus_strerror(err), ms_since(&t0));
+    check("the request after them fails at once: the server closed the connection (not a "
+          "timeout)",
+          rc == -1 && err == ECONNRESET, why);
+
+    int ok = 1;
+    for (int i = 0; i < 20 && ok; ++i) {
+        rc = modbus_read_registers(ctx, i, 1, regs);
+        ok = rc == 1 && regs[0] == 0x1000 + i;
+        snprintf(why, sizeof why, "request %d: rc %d (%s)", i, rc, modbus_strerror(errno));
+    }
+    check("connected again: 20 requests after it succeed", ok, why);
+
+    printf("%d passed, %d failed\n", passed, failed);
+    return failed ? 1 : 0;
+}
+
 int main(int argc, char** argv) {
     if (argc < 3) {
         fprintf(stderr, "usage: %s rtu-server TTY UNIT | tcp-server PORT | rtu-client TTY UNIT "
-                        "[--ferrule-extras] | tcp-client PORT UNIT [--ferrule-extras]\n",
+                        "[--ferrule-extras] | tcp-client PORT UNIT [--ferrule-extras] | "
+                        "tcp-client-stray-zeros PORT UNIT\n",
                 argv[0]);
         return 2;
     }
@@ -223,6 +276,8 @@ int main(int argc, char** argv) {
         rc = serve_tcp(ctx);
     } else if ((strcmp(mode, "rtu-client") == 0 || strcmp(mode, "tcp-client") == 0) && argc > 3) {
         rc = client(ctx, atoi(argv[3]), extras);
+    } else if (strcmp(mode, "tcp-client-stray-zeros") == 0 && argc > 3) {
+        rc = stray_zeros(ctx, atoi(argv[3]));
     }
     modbus_close(ctx);
     modbus_free(ctx);

@@ -146,6 +146,9 @@ tcp("libmodbus TCP client -> ferrule TCP server",
     [ferrule_peer, "tcp-server", "{port}"], [libmodbus_peer, "tcp-client", "{port}", "1", "--ferrule-extras"], 14)
 tcp("pymodbus TCP client -> ferrule TCP server",
     [ferrule_peer, "tcp-server", "{port}"], [*pymodbus, "tcp-client", "{port}", "1", "--ferrule-extras"], 13)
+# Stray bytes that start no request: ferrule closes the connection, libmodbus reconnects.
+tcp("libmodbus TCP client, eight stray zero bytes -> ferrule TCP server",
+    [ferrule_peer, "tcp-server", "{port}"], [libmodbus_peer, "tcp-client-stray-zeros", "{port}", "1"], 4)
 
 # mbpoll against ferrule's TCP server: reads of each table, writes, and an exception.
 port = str(free_port())

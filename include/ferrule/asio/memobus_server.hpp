@@ -291,7 +291,9 @@ private:
         case close_reason::refused: return stats_.refused;
         case close_reason::idle: return stats_.idle_closed;
         case close_reason::request_timeout: return stats_.request_timeouts;
-        case close_reason::peer: break;
+        case close_reason::peer:
+        case close_reason::unframeable: // not here: message_decoder resynchronises
+            break;
         }
         return stats_.closed;
     }

@@ -12,6 +12,10 @@
 //     byte, or when no request has completed for `idle_timeout` (§4.2.1: the server may close
 //     connections it considers idle), so a client that sends a byte now and then holds no
 //     connection; bytes alone reset neither
+//   * a header that no Modbus request can start with (protocol id other than 0, length
+//     outside 2…254) closes the connection once the requests before it are answered: the
+//     stream has lost its framing, and the client learns it at once and reconnects, instead
+//     of timing out on requests that a resynchronising server would swallow
 //   * replies go out in the order of the requests, `processing_time` after each request
 //     (0: at once); a reply is sent straight from the session's buffer, and only the part
 //     the socket does not take at once is copied to wait for it
@@ -28,6 +32,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <list>
 #include <memory>
 #include <system_error>
@@ -53,6 +58,9 @@ struct modbus_tcp_server_options {
     // modbus_profibus.md §A.3, §C.1).
     duration request_timeout = std::chrono::seconds(2);
     duration processing_time{};
+    // Called on the server's thread for each connection the server closes or refuses itself
+    // (every reason but close_reason::peer), with the client's address.
+    std::function<void(const ::asio::ip::tcp::endpoint&, close_reason)> on_close{};
 };
 
 // Counted on the server's thread, readable from any other.
@@ -61,6 +69,7 @@ struct modbus_tcp_server_stats {
     std::atomic<std::uint64_t> refused{0};          // over max_connections
     std::atomic<std::uint64_t> idle_closed{0};      // no complete request for idle_timeout
     std::atomic<std::uint64_t> request_timeouts{0}; // a request not complete in request_timeout
+    std::atomic<std::uint64_t> bad_headers{0};      // an MBAP header no request starts with
     std::atomic<std::uint64_t> closed{0};           // by the client, or after an I/O error
     std::atomic<std::uint64_t> replies{0};
 };
@@ -108,6 +117,9 @@ private:
     class connection : public server_connection<connection> {
         using base = server_connection<connection>;
         friend base;
+        using base::end_when_sent;
+        using base::ending;
+        using base::read_no_more;
         using base::read_on;
         using base::received_at;
         using base::request_begun;
@@ -135,16 +147,19 @@ private:
             return c;
         }
 
-        // Times the requests as their bytes come, by their MBAP headers.
+        // Times the requests as their bytes come, by their MBAP headers; stops at a header
+        // that starts none.
         void received(std::span<const std::uint8_t> bytes) {
-            if (framer_.feed(bytes).ended > 0) request_completed();
+            const auto s = framer_.feed(bytes);
+            if (s.ended > 0) request_completed();
+            if (framer_.bad()) return read_no_more(s.taken, close_reason::unframeable);
             if (framer_.in_adu()) request_begun();
         }
 
         // Gives the session what it can take: a chunk no larger than it holds behind a
         // request, and only while no reply is waiting, so that a client sending many requests
         // at once (guide §3.1.2 lets it) loses none. Reads on when all is fed, unless replies
-        // back up.
+        // back up; after a bad header, ends once all before it is answered.
         void feed() {
             while (!unused().empty() && session_.wake_at() == never) {
                 const auto bytes =
@@ -154,6 +169,7 @@ private:
                 pump();
                 if (!socket_.is_open()) return;
             }
+            if (ending() && unused().empty() && session_.wake_at() == never) return end_when_sent();
             read_on();
         }
 
@@ -184,7 +200,7 @@ private:
         void end(close_reason why) {
             if (!socket_.is_open()) return;
             // Counted before the close that the client sees.
-            ++owner_.counter(why);
+            owner_.closing(socket_, why);
             shut();
             owner_.forget(this);
         }
@@ -195,12 +211,22 @@ private:
         modbus::mbap_framer framer_;
     };
 
-    // The count of connections closed for `why`.
+    // Counts a connection that ends for `why`; one the server closes or refuses itself goes to
+    // on_close too.
+    void closing(const ::asio::ip::tcp::socket& socket, close_reason why) {
+        ++counter(why);
+        if (why == close_reason::peer || !options_.on_close) return;
+        std::error_code ec;
+        const auto peer = socket.remote_endpoint(ec);
+        if (!ec) options_.on_close(peer, why);
+    }
+
     std::atomic<std::uint64_t>& counter(close_reason why) noexcept {
         switch (why) {
         case close_reason::refused: return stats_.refused;
         case close_reason::idle: return stats_.idle_closed;
         case close_reason::request_timeout: return stats_.request_timeouts;
+        case close_reason::unframeable: return stats_.bad_headers;
         case close_reason::peer: break;
         }
         return stats_.closed;
@@ -211,7 +237,7 @@ private:
             if (ec == ::asio::error::operation_aborted || !acceptor_.is_open()) return;
             if (!ec) {
                 if (connections_.size() >= options_.max_connections) {
-                    ++counter(close_reason::refused);
+                    closing(socket, close_reason::refused);
                     std::error_code ignored;
                     socket.close(ignored);
                 } else {

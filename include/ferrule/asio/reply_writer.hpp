@@ -48,6 +48,8 @@ public:
     }
 
     bool backlogged() const noexcept { return queued_.size() >= backlog_limit; }
+    // Every reply has gone to the socket.
+    bool idle() const noexcept { return writing_.empty(); }
 
 private:
     template <class KeepAlive, class Drained>

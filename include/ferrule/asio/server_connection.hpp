@@ -20,6 +20,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <system_error>
 #include <utility>
@@ -36,6 +37,7 @@ enum class close_reason : std::uint8_t {
     refused,         // beyond the server's connection (channel) limit
     idle,            // no complete request for idle_timeout
     request_timeout, // a request not complete request_timeout after its first byte
+    unframeable,     // bytes that no request can start with (Modbus TCP: a bad MBAP header)
 };
 
 template <class Connection>
@@ -52,6 +54,7 @@ public:
         socket_.non_blocking(true, ec);
         socket_.set_option(::asio::ip::tcp::no_delay(true), ec);
         watch_.start(limits, this->shared_from_this(), [this](idle_watch::expiry e) {
+            if (ending_) return self().end(*ending_);
             self().end(e == idle_watch::expiry::idle ? close_reason::idle
                                                      : close_reason::request_timeout);
         });
@@ -75,7 +78,7 @@ protected:
 
     // Reads again when all is used, no read is under way and the replies do not back up.
     void read_on() {
-        if (reading_ || rx_pos_ < rx_size_ || backlogged() || !socket_.is_open()) return;
+        if (ending_ || reading_ || rx_pos_ < rx_size_ || backlogged() || !socket_.is_open()) return;
         reading_ = true;
         socket_.async_read_some(::asio::buffer(rx_),
                                 [keep = this->shared_from_this()](
@@ -96,6 +99,19 @@ protected:
     // request is complete.
     void request_begun() noexcept { watch_.begun(); }
     void request_completed() noexcept { watch_.completed(); }
+
+    // Of the unused bytes only the first `n` are used, and nothing more is read: the
+    // connection is to end for `why` once its requests before them are answered.
+    void read_no_more(std::size_t n, close_reason why) noexcept {
+        rx_size_ = rx_pos_ + n;
+        ending_ = why;
+    }
+    bool ending() const noexcept { return ending_.has_value(); }
+    // Ends the connection for read_no_more()'s reason once the replies sent have gone (the
+    // writer's drain calls feed() again); feed() calls it when all is answered.
+    void end_when_sent() {
+        if (writer_.idle()) self().end(*ending_);
+    }
 
     // A connection that frames as feed() uses the bytes needs no look at them before.
     void received(std::span<const std::uint8_t>) noexcept {}
@@ -121,6 +137,7 @@ private:
     std::size_t rx_size_ = 0;
     time_point received_at_{};
     bool reading_ = false;
+    std::optional<close_reason> ending_;
     reply_writer<::asio::ip::tcp::socket> writer_{socket_};
 };
 
