@@ -49,6 +49,9 @@ struct sim_options {
     // Modbus VFDs
     std::optional<std::uint16_t> tcp_port;
     bool tcp_only = false;
+    std::size_t tcp_connections = 64;
+    double idle_timeout_s = 60;
+    double request_timeout_s = 2;
     std::string link;
     double drop = 0;
     double corrupt = 0;
@@ -124,16 +127,33 @@ public:
         while (!stop) ctx_.run_for(std::chrono::milliseconds(50));
         server_.close();
         const auto& s = server_.stats();
-        fmt::print(stderr, "ferrule-sim: TCP: {} connections, {} replies\n", s.accepted, s.replies);
+        fmt::print(stderr,
+                   "ferrule-sim: TCP: {} connections ({} refused, {} idle closed, {} request "
+                   "timeouts, {} bad MBAP headers), {} replies\n",
+                   s.accepted.load(), s.refused.load(), s.idle_closed.load(),
+                   s.request_timeouts.load(), s.bad_headers.load(), s.replies.load());
     }
     void start() {
         thread_ = std::thread([this] { run(); });
     }
 
 private:
+    static ferrule::duration seconds(double s) {
+        return std::chrono::duration_cast<ferrule::duration>(std::chrono::duration<double>(s));
+    }
     static ferrule::host::modbus_tcp_server_options tcp_options(const sim_options& o) {
         ferrule::host::modbus_tcp_server_options t;
+        t.max_connections = o.tcp_connections;
+        t.idle_timeout = seconds(o.idle_timeout_s);
+        t.request_timeout = seconds(o.request_timeout_s);
         t.processing_time = std::chrono::milliseconds(o.delay_ms);
+        t.on_close = [](const asio::ip::tcp::endpoint& client, ferrule::host::close_reason why) {
+            if (why != ferrule::host::close_reason::unframeable) return;
+            fmt::print(stderr,
+                       "ferrule-sim: TCP: closed {}:{}: an MBAP header that no Modbus request "
+                       "starts with (protocol id not 0, or length outside 2-254)\n",
+                       client.address().to_string(), client.port());
+        };
         return t;
     }
     asio::io_context ctx_;
@@ -293,6 +313,19 @@ int main(int argc, char** argv) {
                     "also serve the first unit's VFD as a Modbus TCP server on 127.0.0.1:PORT (0: "
                     "any free port)");
     mbs->add_flag("--tcp-only", o.tcp_only, "serve only over TCP, no pty (needs --tcp)");
+    mbs->add_option("--connections", o.tcp_connections,
+                    "TCP clients at once; one more is accepted and closed at once")
+        ->check(CLI::Range(1, 1024))
+        ->capture_default_str();
+    mbs->add_option("--idle-timeout", o.idle_timeout_s,
+                    "s without a complete request after which a TCP client is closed (0: never)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    mbs->add_option("--request-timeout", o.request_timeout_s,
+                    "s from a request's first byte by which it must be complete, or the TCP "
+                    "client is closed (0: never)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
     mbs->callback([&] { rc = serve_modbus(o); });
 
     ferrule::sim_app::add_profibus_gateway(app, stop, rc);

@@ -35,7 +35,8 @@ struct memobus_sim_options {
     std::string bind = "127.0.0.1";
     bool udp = false;
     std::size_t channels = 4; // 218IFA (seeds/004); the 218IF has 10
-    unsigned idle_timeout_s = 60;
+    double idle_timeout_s = 60;
+    double request_timeout_s = 2;
     std::uint16_t mw_offset = 0;
     std::uint16_t iw_offset = 0;
     std::uint16_t mb_offset = 0;
@@ -82,13 +83,17 @@ private:
     std::uint32_t ticks_ = 0;
 };
 
+ferrule::duration seconds(double s) {
+    return std::chrono::duration_cast<ferrule::duration>(std::chrono::duration<double>(s));
+}
+
 void print_stats(const host::memobus_server<image_type>& server) {
     const auto& s = server.stats();
     fmt::print(stderr,
-               "ferrule-sim: MEMOBUS: {} TCP connections ({} refused, {} idle closed), {} UDP "
-               "peers ({} datagrams dropped), {} replies\n",
-               s.accepted.load(), s.refused.load(), s.idle_closed.load(), s.udp_peers.load(),
-               s.udp_dropped.load(), s.replies.load());
+               "ferrule-sim: MEMOBUS: {} TCP connections ({} refused, {} idle closed, {} request "
+               "timeouts), {} UDP peers ({} datagrams dropped), {} replies\n",
+               s.accepted.load(), s.refused.load(), s.idle_closed.load(), s.request_timeouts.load(),
+               s.udp_peers.load(), s.udp_dropped.load(), s.replies.load());
     for (std::size_t i = 0; i < server.max_channels(); ++i) {
         const auto c = server.channel_stats(i);
         fmt::print(stderr,
@@ -103,7 +108,8 @@ void print_stats(const host::memobus_server<image_type>& server) {
 int serve_memobus(const memobus_sim_options& o, const std::atomic<bool>& stop) {
     host::memobus_server_options so;
     so.max_channels = o.channels;
-    so.idle_timeout = std::chrono::seconds(o.idle_timeout_s);
+    so.idle_timeout = seconds(o.idle_timeout_s);
+    so.request_timeout = seconds(o.request_timeout_s);
     so.channel.mw_offset = o.mw_offset;
     so.channel.iw_offset = o.iw_offset;
     so.channel.mb_offset = o.mb_offset;
@@ -155,7 +161,14 @@ void add_memobus(CLI::App& app, const std::atomic<bool>& stop, int& rc) {
         ->check(CLI::Range(1, 20))
         ->capture_default_str();
     sub->add_option("--idle-timeout", o->idle_timeout_s,
-                    "s of silence after which a master's channel is freed (0: never)")
+                    "s without a complete request after which a master's channel is freed "
+                    "(0: never)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    sub->add_option("--request-timeout", o->request_timeout_s,
+                    "s from a TCP request's first byte by which it must be complete, or the "
+                    "master's channel is freed (0: never)")
+        ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
     sub->add_option("--mw-offset", o->mw_offset, "hold register offset in words (PARAM11)");
     sub->add_option("--iw-offset", o->iw_offset, "input register offset in words (PARAM10)");
