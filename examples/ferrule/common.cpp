@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <cstdio>
+#include <set>
 
 namespace ferrule::cli {
 
@@ -54,7 +55,11 @@ std::unique_ptr<port_session> port_session::open(const common_options& o, const 
     host::serial_options options;
     options.format = f;
     options.rs485 = o.rs485;
-    const auto warn = [](std::string_view text) { fmt::print(stderr, "warning: {}\n", text); };
+    // A port opened again (the demo does) has nothing new to say: each warning once.
+    const auto warn = [](std::string_view text) {
+        static std::set<std::string, std::less<>> said;
+        if (said.emplace(text).second) fmt::print(stderr, "warning: {}\n", text);
+    };
     if (auto ec = host::open_serial(p->port_, o.port, options, warn)) {
         fmt::print(stderr, "ferrule: {}\n", host::open_error_message(o.port, ec));
         return nullptr;
