@@ -86,9 +86,10 @@ void print_stats(const host::memobus_server<image_type>& server) {
     const auto& s = server.stats();
     fmt::print(stderr,
                "ferrule-sim: MEMOBUS: {} TCP connections ({} refused, {} idle closed), {} UDP "
-               "peers ({} datagrams dropped), {} replies\n",
+               "peers ({} commands refused for want of a channel, {} datagrams of no peer "
+               "ignored), {} replies\n",
                s.accepted.load(), s.refused.load(), s.idle_closed.load(), s.udp_peers.load(),
-               s.udp_dropped.load(), s.replies.load());
+               s.udp_refused.load(), s.udp_ignored.load(), s.replies.load());
     for (std::size_t i = 0; i < server.max_channels(); ++i) {
         const auto c = server.channel_stats(i);
         fmt::print(stderr,

@@ -363,7 +363,7 @@ TEST_CASE("memobus server: UDP peers, each its own channel, within max_channels"
     udp_master c(s.server.udp_port());
     CHECK(c.transact(make(mb::sfc::read_holding_registers_ext, 0, 1), 200ms).error() ==
           make_error_code(errc::timeout));
-    CHECK(s.server.stats().udp_dropped == 1);
+    CHECK(s.server.stats().udp_refused == 1);
     CHECK(a.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
 }
 
@@ -381,7 +381,7 @@ TEST_CASE("memobus server: a UDP peer silent for idle_timeout gives its channel 
     std::this_thread::sleep_for(100ms);
     ++b.serial; // the dropped request's
     CHECK(b.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
-    CHECK(s.server.stats().udp_dropped == 1);
+    CHECK(s.server.stats().udp_refused == 1);
     CHECK(s.server.channel_stats(0).opened == 2);
 }
 
@@ -398,4 +398,27 @@ TEST_CASE("memobus server: a UDP peer silent for idle_timeout gives its channel 
     CHECK(t.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
     CHECK(s.server.stats().accepted == 1);
     CHECK(s.server.stats().refused == 0);
+}
+
+TEST_CASE("memobus server: datagrams that are no command take no UDP channel", "[asio][memobus]") {
+    host::memobus_server_options o;
+    o.max_channels = 4;
+    running_server s(o);
+    // One byte each, from four ports on four addresses: as many as there are channels. (On
+    // loopback a datagram is in the server's socket when send_to returns, so the server reads
+    // them before the master's command below.)
+    const std::array<const char*, 4> from{"127.0.0.2", "127.0.0.3", "127.0.0.4", "127.0.0.5"};
+    const std::array<std::uint8_t, 4> bytes{0x11, 0x19, 0x00, 0xFF};
+    asio::io_context ctx;
+    for (std::size_t i = 0; i < from.size(); ++i) {
+        asio::ip::udp::socket junk(ctx, {asio::ip::make_address(from[i]), 0});
+        junk.send_to(asio::buffer(&bytes[i], 1),
+                     {asio::ip::make_address("127.0.0.1"), s.server.udp_port()});
+    }
+    udp_master m(s.server.udp_port());
+    CHECK(m.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    CHECK(s.server.stats().udp_ignored == 4);
+    CHECK(s.server.stats().udp_peers == 1);
+    CHECK(s.server.stats().udp_refused == 0);
+    CHECK(s.server.open_channels() == 1);
 }

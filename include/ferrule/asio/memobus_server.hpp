@@ -9,15 +9,20 @@
 //     peer takes the lowest free channel
 //   * at most `max_channels` at once, TCP and UDP together (218IFA: 4, 218IF: 10, seeds/004;
 //     MotionAPI: 20, §6, §11.4): a TCP connection beyond it is accepted and closed at once
-//     and counted as refused; a datagram from a peer beyond it is dropped and counted
+//     and counted as refused; a command from a UDP peer beyond it is refused (below)
 //   * TCP: message_decoder per connection (§2), so a master that sends garbage, half a
 //     header or a header announcing 65535 bytes disturbs only its own channel: its decoder
 //     resynchronises (max_message bounds what it waits for) or waits while the others are
 //     served. Requests are answered in order, pipelined ones too (§6 assumes none). A
 //     connection that sends nothing for `idle_timeout` is closed
-//   * UDP: one datagram is one message (§6); a peer silent for `idle_timeout` gives up its
-//     channel when another peer or a TCP connection needs it. A reply the socket does not take at
-//     once is dropped (and counted), as a datagram may be
+//   * UDP: one datagram is one message (§6)
+//       - a datagram from no peer takes a channel only when it is a 218 command (type 0x11,
+//         both lengths agreeing, §2, §10.1); anything else is dropped and counted (ignored)
+//       - a peer silent for `idle_timeout` gives up its channel when another peer or a TCP
+//         connection needs one
+//       - a command from a new peer when no channel is free is refused: dropped (UDP has no
+//         refusal a master could see) and counted
+//     A reply the socket does not take at once is dropped (and counted), as a datagram may be
 //   * replies are sent straight from the session's buffer; only the part a TCP socket does
 //     not take at once is copied to wait for it, and a master that does not read its replies
 //     is not read from while reply_writer::backlog_limit bytes of them wait
@@ -64,7 +69,8 @@ struct memobus_server_stats {
     std::atomic<std::uint64_t> idle_closed{0}; // closed after idle_timeout
     std::atomic<std::uint64_t> closed{0};      // by the master, or after an I/O error
     std::atomic<std::uint64_t> udp_peers{0};   // UDP peers given a channel
-    std::atomic<std::uint64_t> udp_dropped{0}; // datagrams of peers over max_channels
+    std::atomic<std::uint64_t> udp_refused{0}; // commands of new peers, no channel free
+    std::atomic<std::uint64_t> udp_ignored{0}; // datagrams of no peer that are no command
     std::atomic<std::uint64_t> udp_unsent{0};  // replies the UDP socket did not take
     std::atomic<std::uint64_t> replies{0};
 };
@@ -313,14 +319,12 @@ private:
     }
 
     void on_datagram(std::size_t n) {
-        peer* p = find_peer(udp_from_);
-        if (p == nullptr) {
-            ++stats_.udp_dropped;
-            return;
-        }
-        p->last_activity = steady_now();
         // A datagram longer than max_message fills udp_rx_ and is no message.
-        const std::size_t size = p->session.handle(*this, p->channel, {udp_rx_.data(), n}, udp_tx_);
+        const std::span<const std::uint8_t> datagram(udp_rx_.data(), n);
+        peer* p = find_peer(udp_from_, datagram);
+        if (p == nullptr) return;
+        p->last_activity = steady_now();
+        const std::size_t size = p->session.handle(*this, p->channel, datagram, udp_tx_);
         if (size == 0) return;
         std::error_code ec;
         udp_.send_to(::asio::buffer(udp_tx_.data(), size), p->endpoint, 0, ec);
@@ -342,16 +346,30 @@ private:
         return std::nullopt;
     }
 
-    // The peer's session; a new peer takes a free channel, or one of a peer silent for
-    // idle_timeout. Null when there is none.
-    peer* find_peer(const ::asio::ip::udp::endpoint& from) {
+    // The sender's peer, or null when the datagram is dropped. A sender that is no peer
+    // becomes one only with a command: it takes a free channel, or one of a peer silent for
+    // idle_timeout.
+    peer* find_peer(const ::asio::ip::udp::endpoint& from, std::span<const std::uint8_t> datagram) {
         for (auto& p : peers_)
             if (p.endpoint == from) return &p;
+        if (!is_command(datagram)) {
+            ++stats_.udp_ignored;
+            return nullptr;
+        }
         const auto channel = take_or_reclaim();
-        if (!channel) return nullptr;
+        if (!channel) {
+            ++stats_.udp_refused;
+            return nullptr;
+        }
         ++stats_.udp_peers;
         peers_.push_back({from, *channel, {memobus::server(config_of(*channel))}, {}});
         return &peers_.back();
+    }
+
+    // A whole 218 command (§2): what a master sends, and what garbage hardly ever is.
+    static bool is_command(std::span<const std::uint8_t> datagram) noexcept {
+        const auto h = memobus::parse_message(datagram);
+        return h && h->type == memobus::command_type::command;
     }
 
     ::asio::ip::tcp::acceptor acceptor_;
