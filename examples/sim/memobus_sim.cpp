@@ -1,7 +1,7 @@
 // ferrule-sim memobus. host::memobus_server serves one register image (MW00000…MW65534,
-// IW0000…IW4095) on one io_context thread, this one; each TCP connection or UDP peer is a
-// channel with the same offsets and write range. A timer on the same io_context moves the
-// live registers, so the image is only ever touched from that thread:
+// IW0000…IW4095) on one io_context thread, this one; each TCP connection or UDP master (an IP
+// address) is a channel with the same offsets and write range. A timer on the same io_context
+// moves the live registers, so the image is only ever touched from that thread:
 //
 //   IW00000  counts up every 100 ms
 //   IW00001  seconds since the start
@@ -86,10 +86,10 @@ void print_stats(const host::memobus_server<image_type>& server) {
     const auto& s = server.stats();
     fmt::print(stderr,
                "ferrule-sim: MEMOBUS: {} TCP connections ({} refused, {} idle closed), {} UDP "
-               "peers ({} commands refused for want of a channel, {} datagrams of no peer "
-               "ignored), {} replies\n",
+               "masters ({} moved to a new port, {} commands refused for want of a channel, {} "
+               "datagrams of no master ignored), {} replies\n",
                s.accepted.load(), s.refused.load(), s.idle_closed.load(), s.udp_peers.load(),
-               s.udp_refused.load(), s.udp_ignored.load(), s.replies.load());
+               s.udp_moved.load(), s.udp_refused.load(), s.udp_ignored.load(), s.replies.load());
     for (std::size_t i = 0; i < server.max_channels(); ++i) {
         const auto c = server.channel_stats(i);
         fmt::print(stderr,
