@@ -14,7 +14,9 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <memory>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -457,4 +459,50 @@ TEST_CASE("memobus server: a UDP master that runs again from new ports keeps one
     CHECK(t.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
     CHECK(s.server.stats().accepted == 1);
     CHECK(s.server.stats().refused == 0);
+}
+
+TEST_CASE("memobus server: a new UDP master with every channel in use is refused, counted and "
+          "reported",
+          "[asio][memobus]") {
+    std::mutex lock;
+    std::condition_variable reported;
+    std::vector<asio::ip::udp::endpoint> refused;
+    host::memobus_server_options o;
+    o.max_channels = 4;
+    o.on_udp_refused = [&](const asio::ip::udp::endpoint& from) {
+        const std::lock_guard<std::mutex> hold(lock);
+        refused.push_back(from);
+        reported.notify_all();
+    };
+    running_server s(o);
+    const std::array<const char*, 4> from{"127.0.0.2", "127.0.0.3", "127.0.0.4", "127.0.0.5"};
+    std::vector<std::unique_ptr<udp_master>> live;
+    for (const char* address : from) {
+        live.push_back(std::make_unique<udp_master>(s.server.udp_port(), address));
+        REQUIRE(live.back()->transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    }
+
+    udp_master fifth(s.server.udp_port(), "127.0.0.1");
+    REQUIRE_FALSE(fifth.send(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    {
+        std::unique_lock<std::mutex> hold(lock);
+        REQUIRE(reported.wait_for(hold, 2s, [&] { return !refused.empty(); }));
+        CHECK(refused.size() == 1);
+        CHECK(refused.front() == fifth.socket.local_endpoint());
+    }
+    CHECK(s.server.stats().udp_refused == 1);
+    CHECK(s.server.stats().udp_peers == 4);
+    CHECK(s.server.open_channels() == 4);
+
+    // Garbage from a sixth address while all are in use is ignored, not refused; the live
+    // masters go on (the server reads the garbage before their commands, see above).
+    asio::io_context ctx;
+    asio::ip::udp::socket junk(ctx, {asio::ip::make_address("127.0.0.6"), 0});
+    const std::array<std::uint8_t, 1> garbage{0x11};
+    junk.send_to(asio::buffer(garbage), {asio::ip::make_address("127.0.0.1"), s.server.udp_port()});
+    for (auto& m : live) CHECK(m->transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    CHECK(s.server.stats().udp_ignored == 1);
+    CHECK(s.server.stats().udp_refused == 1);
+    const std::lock_guard<std::mutex> hold(lock);
+    CHECK(refused.size() == 1);
 }

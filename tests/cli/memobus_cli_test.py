@@ -195,4 +195,21 @@ check("the six runs were one UDP master; the garbage is counted", "1 UDP masters
       and "0 commands refused" in stats and "4 datagrams of no master ignored" in stats
       and "1 TCP connections (0 refused" in stats, stats)
 
+# One channel, held by a master on 127.0.0.2; the CLI on 127.0.0.1 finds none free.
+sim = MemobusSim("--udp", "--channels", "1")
+host = ["--host", sim.address]
+sim_port = int(sim.address.split(":")[1])
+with udp_from("127.0.0.2") as holder:
+    holder.sendto(command, ("127.0.0.1", sim_port))
+    reply, _ = holder.recvfrom(8192)
+    check("the first UDP master holds the only channel", reply[:2] == b"\x19\x00", reply.hex())
+    rc, out, err = run("memobus", "read", "MW00000", "--udp", "--timeout", "200",
+                       "--retries", "2", *host)
+    check("a UDP master with no free channel times out", rc == 3
+          and "no reply before the response timeout" in err, err)
+stats = sim.stop()
+check("ferrule-sim logs one line for the run's three refused commands and counts each",
+      stats.count("no free channel for UDP master 127.0.0.1:") == 1
+      and "3 commands refused for want of a channel" in stats, stats)
+
 sys.exit(summary())

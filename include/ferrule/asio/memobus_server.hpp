@@ -28,7 +28,7 @@
 //       - a master silent for `idle_timeout` gives up its channel when another master or a
 //         TCP connection needs one
 //       - a command from a new address when no channel is free is refused: dropped (UDP has
-//         no refusal a master could see) and counted
+//         no refusal a master could see), counted, and passed to `on_udp_refused`
 //     A reply the socket does not take at once is dropped (and counted), as a datagram may be
 //   * replies are sent straight from the session's buffer; only the part a TCP socket does
 //     not take at once is copied to wait for it, and a master that does not read its replies
@@ -47,6 +47,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <list>
 #include <memory>
 #include <optional>
@@ -67,6 +68,8 @@ struct memobus_server_options {
     duration idle_timeout = std::chrono::seconds(60); // zero: never
     memobus::channel_config channel{};                // every channel without its own
     std::vector<memobus::channel_config> channels{};  // channel i's, i = 0, 1, …
+    // Called on the server's thread with the sender of each refused UDP command.
+    std::function<void(const ::asio::ip::udp::endpoint&)> on_udp_refused{};
 };
 
 // Counted on the server's thread, readable from any other.
@@ -373,6 +376,7 @@ private:
         const auto channel = take_or_reclaim();
         if (!channel) {
             ++stats_.udp_refused;
+            if (options_.on_udp_refused) options_.on_udp_refused(from);
             return nullptr;
         }
         ++stats_.udp_peers;
