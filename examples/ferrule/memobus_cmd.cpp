@@ -172,13 +172,16 @@ struct context {
         if (!line) return exit_transport;
         if (auto ec = master.start(r)) return usage(fmt::format("{}: {}", what, ec.message()));
         if (auto ec = line->transact(master)) {
-            // A controller whose channels are all in use accepts and closes at once.
+            // A controller whose channels are all in use accepts and closes at once over TCP,
+            // and drops a command from a new UDP master unanswered.
             const bool closed = ec == ::asio::error::eof || ec == ::asio::error::connection_reset;
-            return report_error(
-                o.common,
+            std::string failed =
                 closed ? what + "; the controller closed the connection (all channels in use?)"
-                       : what,
-                ec, ec.category() == mb::device_category());
+                       : what;
+            if (o.udp && ec == make_error_code(errc::timeout))
+                failed = what + " over UDP; the controller may be unreachable or have no free "
+                                "channel (all in use by other masters)";
+            return report_error(o.common, failed, ec, ec.category() == mb::device_category());
         }
         return std::nullopt;
     }
