@@ -15,6 +15,10 @@ int main(int argc, char** argv) {
     CLI::App app{"ferrule: the protocols PLCs use with drives and sensors, from a PC"};
     app.require_subcommand(1);
     app.set_version_flag("--version", "ferrule 0.1.0");
+    // Usage errors found while parsing look like those found after: "ferrule: --address: …".
+    app.failure_message([](const CLI::App* a, const CLI::Error& e) {
+        return "ferrule: " + CLI::FailureMessage::simple(a, e);
+    });
     int exit_status = ferrule::cli::exit_ok;
     ferrule::cli::add_movilink(app, exit_status);
     ferrule::cli::add_dimetix(app, exit_status);
