@@ -9,7 +9,9 @@ packages=(
     catch2 libbenchmark-dev libasio-dev libcli11-dev libfmt-dev nlohmann-json3-dev
     clang-14 libclang-rt-14-dev
     gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib binutils-arm-none-eabi
-    pkg-config socat libmodbus-dev python3-pymodbus mbpoll
+    pkg-config socat libmodbus-dev mbpoll
+    # pymodbus's serial and server modules import these; Debian only recommends them.
+    python3-pymodbus python3-serial python3-serial-asyncio
 )
 
 missing=()

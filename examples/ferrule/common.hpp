@@ -14,6 +14,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <vector>
 
@@ -45,9 +46,64 @@ struct common_options {
     bool rs485 = false;
 };
 
-// Adds the common options to a protocol's subcommand. `default_address` is the protocol's;
-// `address_names` the option's names in its terms (Modbus: the unit).
-void add_common_options(CLI::App& app, common_options& o, unsigned default_address,
+// Numbers on the command line (docs/cli.md, "Numbers and ranges"). An integer is decimal or
+// 0x hex, '-' before a negative one; a leading 0 is still decimal (CLI11 alone reads 010 as
+// octal 8). Every numeric option and argument is checked against its range while the command
+// line is parsed, or by refuse() where the range depends on other options: a refusal names
+// the option, the value and the range, and exits 2.
+
+// An integer from a command line; a number beyond 64 bits saturates to the nearest 64-bit
+// bound, which every range refuses. nullopt when `text` is no number.
+std::optional<std::int64_t> parse_integer(std::string_view text);
+
+// Inclusive bounds of allowed values.
+struct interval {
+    std::int64_t lo;
+    std::int64_t hi;
+};
+
+// "0-255", "-32768 to 65535", "9600, 57600", "0-99, 254".
+std::string range_text(std::span<const interval> allowed);
+std::string range_text(double lo, double hi);
+
+// The check of an integer option or argument: only values in `allowed`. `note` (what the
+// values mean, the manual's section) follows the range in a refusal. It leaves the number in
+// decimal for CLI11 to convert. Give it to CLI::Option::transform().
+CLI::Validator integer_in(std::vector<interval> allowed, std::string note = {});
+CLI::Validator integer_in(std::int64_t lo, std::int64_t hi, std::string note = {});
+// The check of a decimal number (rpm, s, ms): finite and in [lo, hi].
+CLI::Validator number_in(double lo, double hi, std::string note = {});
+
+// Every duration in ms, interval, response timeout or pause, is at most a day (also the
+// longest sampling time of a D-Series sensor, S1 §8.2.5).
+inline constexpr std::int64_t max_ms = 86'400'000;
+// A count of repetitions (measurements, cycles, lines).
+inline constexpr std::int64_t max_count = 1'000'000;
+// Resends after a failed attempt: more only hide a broken line.
+inline constexpr std::int64_t max_retries = 100;
+
+// The refusal of a value whose range depends on other options, found after parsing. Prints
+// "ferrule: <option>: <value> is outside <range> (<note>)" and returns exit_usage.
+int refuse(std::string_view option, std::string_view value, std::string_view range,
+           std::string_view note = {});
+
+// The baud rates host::open_serial() can set (ferrule/asio/serial_port.hpp).
+inline constexpr std::int64_t host_baud_rates[] = {1200,  2400,   4800,   9600,   19200, 38400,
+                                                   57600, 115200, 230400, 460800, 921600};
+
+// The check of --baud: the rates host::open_serial() can set within [lo, hi].
+CLI::Validator host_baud_in(std::int64_t lo, std::int64_t hi, std::string note);
+
+// What the common options of a protocol accept: its addresses and baud rates.
+struct protocol_ranges {
+    unsigned default_address;
+    CLI::Validator address;
+    CLI::Validator baud;
+};
+
+// Adds the common options to a protocol's subcommand. `address_names` are the address
+// option's names in the protocol's terms (Modbus: the unit).
+void add_common_options(CLI::App& app, common_options& o, const protocol_ranges& ranges,
                         const std::string& address_names = "--address,-a");
 
 // The serial format from --format / --baud over the protocol's manual default.

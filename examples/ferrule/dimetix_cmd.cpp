@@ -1,5 +1,7 @@
 // `ferrule dimetix …`: a Dimetix D-Series laser distance sensor on a serial port.
+#include <array>
 #include <chrono>
+#include <limits>
 #include <thread>
 #include <vector>
 
@@ -227,7 +229,43 @@ int cmd_errors_clear(context& c) {
     return simple(c, dx::clear_error_stack(c.id()), "clear error stack");
 }
 
+// sNbr takes the communication settings 1, 2, 6, 7, 10, 11, not all of 1-11 (S1 §8.3.1).
+bool is_comm(const dx::command_spec& s) {
+    return s.name == dx::mnemonic("br");
+}
+
+// The range of a configuration command's first parameter (S1 §8.3-8.4), for a refusal.
+std::string first_value_range(const dx::command_spec& s) {
+    if (is_comm(s)) return "1, 2, 6, 7, 10, 11";
+    return range_text(std::array<interval, 1>{{{s.lo, s.hi}}});
+}
+
+bool first_value_fits(const dx::command_spec& s, std::int32_t v) {
+    if (is_comm(s)) return dx::is_comm_setting(v);
+    return v >= s.lo && v <= s.hi;
+}
+
+// Refuses a first value (the selector of afi / ado, the value of a set) outside the range the
+// manual gives the command; exit_ok when it is in it or the form has no such parameter.
+int check_first_value(const std::string& option, const std::string& m,
+                      std::span<const std::int32_t> values, std::size_t params) {
+    const dx::command_spec* s = dx::find_spec(dx::mnemonic(m), true);
+    if (!s || values.empty() || values.size() != params || first_value_fits(*s, values[0]))
+        return exit_ok;
+    return refuse(option, std::to_string(values[0]), first_value_range(*s),
+                  fmt::format("{}, S1 §8.3-8.4", m));
+}
+
+// Values go on the wire as signed 32-bit numbers (S1 §8.1.3).
+CLI::Validator int32_check() {
+    return integer_in(std::numeric_limits<std::int32_t>::min(),
+                      std::numeric_limits<std::int32_t>::max(), "32-bit signed");
+}
+
 int cmd_config_get(context& c) {
+    if (const auto* s = dx::find_spec(dx::mnemonic(c.o.mnemonic), true))
+        if (const int rc = check_first_value("selector", c.o.mnemonic, c.o.values, s->params_a))
+            return rc;
     const auto cmd = dx::get(c.id(), c.o.mnemonic, c.o.values);
     if (!cmd) {
         fmt::print(stderr, "ferrule: '{}' is no configuration value to read (S1 §8.3-8.4)\n",
@@ -238,6 +276,9 @@ int cmd_config_get(context& c) {
 }
 
 int cmd_config_set(context& c) {
+    if (const auto* s = dx::find_spec(dx::mnemonic(c.o.mnemonic), true))
+        if (const int rc = check_first_value("values", c.o.mnemonic, c.o.values, s->params_b))
+            return rc;
     const auto cmd = dx::set(c.id(), c.o.mnemonic, c.o.values);
     if (!cmd) {
         fmt::print(stderr,
@@ -263,29 +304,35 @@ void add_dimetix(CLI::App& app, int& exit_status) {
     const auto add = [o, &exit_status](CLI::App& parent, const char* name, const char* help,
                                        int (*fn)(context&)) {
         auto* sub = parent.add_subcommand(name, help);
-        add_common_options(*sub, o->common, 0);
+        // IDs 0-99 on RS-422/485 (S1 §4.1); the rates of the sNbr settings (S1 §8.3.1).
+        add_common_options(*sub, o->common,
+                           {0, integer_in(0, dx::max_id, "sensor ID, S1 §4.1"),
+                            integer_in({{9600, 9600}, {19200, 19200}, {115200, 115200}},
+                                       "the sNbr settings, S1 §8.3.1")});
+        sub->get_option("--address")->description("sensor ID (0-99)");
         sub->add_flag("--force-continuous", o->force,
                       "allow continuous output although several sensors may share the line");
-        sub->callback([o, fn, &exit_status] {
-            if (o->common.address > dx::max_id) {
-                fmt::print(stderr, "ferrule: --address: sensor IDs are 0-{}\n", dx::max_id);
-                exit_status = exit_usage;
-                return;
-            }
-            exit_status = run_on_port(*o, dx::default_format, fn);
-        });
+        sub->callback(
+            [o, fn, &exit_status] { exit_status = run_on_port(*o, dx::default_format, fn); });
         return sub;
     };
 
     auto* measure =
         add(*dx_app, "measure", "single distance measurement (sNg), --count times", cmd_measure);
-    measure->add_option("--count,-n", o->count, "measurements")->capture_default_str();
+    measure->add_option("--count,-n", o->count, "measurements")
+        ->transform(integer_in(1, max_count))
+        ->capture_default_str();
     measure->add_option("--interval", o->interval_ms, "ms between measurements")
+        ->transform(integer_in(0, max_ms))
         ->capture_default_str();
     auto* track = add(*dx_app, "track",
                       "N samples with tracking and buffering (sNf + sNq), then sNc", cmd_track);
-    track->add_option("count", o->count, "samples")->required();
-    track->add_option("--interval", o->interval_ms, "sampling time in ms")->capture_default_str();
+    track->add_option("count", o->count, "samples")
+        ->transform(integer_in(1, max_count))
+        ->required();
+    track->add_option("--interval", o->interval_ms, "sampling time in ms")
+        ->transform(integer_in(0, max_ms, "sNf sampling time, S1 §8.2.5"))
+        ->capture_default_str();
     add(*dx_app, "temperature", "sensor temperature (sNt)", cmd_temperature);
     add(*dx_app, "signal", "signal strength, single (sNm+0)", cmd_signal);
     add(*dx_app, "laser-on", "laser on as a pointing aid until stop (sNo)", cmd_laser_on);
@@ -301,11 +348,14 @@ void add_dimetix(CLI::App& app, int& exit_status) {
     auto* get =
         add(*config, "get", "read a configuration value, e.g. mc, uo, fi, v", cmd_config_get);
     get->add_option("mnemonic", o->mnemonic, "command mnemonic")->required();
-    get->add_option("selector", o->values, "selector where the command has one (afi, ado)");
+    get->add_option("selector", o->values, "selector where the command has one (afi, ado)")
+        ->transform(int32_check());
     auto* set = add(*config, "set", "set a configuration value (volatile until 'config save')",
                     cmd_config_set);
     set->add_option("mnemonic", o->mnemonic, "command mnemonic")->required();
-    set->add_option("values", o->values, "values")->required();
+    set->add_option("values", o->values, "values; the first in the command's range (S1 §8.3-8.4)")
+        ->transform(int32_check())
+        ->required();
     add(*config, "save", "write the configuration to flash (sNs)", cmd_config_save);
 }
 

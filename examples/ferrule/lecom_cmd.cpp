@@ -82,13 +82,6 @@ nlohmann::json value_json(const lc::value& v) {
 }
 
 int cmd_read(context& c) {
-    if (lc::is_group_address(c.address())) {
-        fmt::print(stderr,
-                   "ferrule: {:02} is a group address: a RECEIVE to it gets no reply "
-                   "(S1 p.8-24); read from one drive\n",
-                   c.address());
-        return exit_usage;
-    }
     int rc = exit_ok;
     for (const auto& code : c.codes) {
         if (c.o.common.dry_run) {
@@ -116,8 +109,9 @@ int cmd_write(context& c) {
     const auto v = lc::parse_value(c.o.value);
     if (!v) {
         fmt::print(stderr,
-                   "ferrule: '{}' is no LECOM value (decimal with up to 4 places, H + 2/4/8 hex "
-                   "digits, S text, O hex octets)\n",
+                   "ferrule: value: '{}' is no LECOM value: give a decimal -214748.3648 to "
+                   "214748.3647 with up to 4 places (FIX32), H + 2/4/8 hex digits, S text or "
+                   "O hex octets\n",
                    c.o.value);
         return exit_usage;
     }
@@ -202,11 +196,6 @@ nlohmann::json table_json(const poller_t& p, const std::vector<unsigned>& drives
 int cmd_poll(context& c) {
     std::vector<unsigned> drives = c.o.drives;
     if (drives.empty()) drives.push_back(c.o.common.address);
-    for (unsigned d : drives)
-        if (!lc::is_unit_address(static_cast<std::uint8_t>(d))) {
-            fmt::print(stderr, "ferrule: --drives: {} is no drive address (01-99 without x0)\n", d);
-            return exit_usage;
-        }
     if (c.o.common.dry_run) {
         for (unsigned d : drives)
             for (const auto& code : c.codes)
@@ -250,6 +239,31 @@ int cmd_poll(context& c) {
     return exit_ok;
 }
 
+// 00 reaches all drives, x0 the group x1-x9; neither is answered (S1 p.8-24).
+CLI::Validator any_address() {
+    return integer_in(0, lc::max_address, "00 all drives, x0 a group, else one drive; S1 p.8-24");
+}
+
+// A drive's own address (C0009): 01-99 except x0.
+CLI::Validator drive_address() {
+    std::vector<interval> units;
+    for (std::int64_t tens = 0; tens <= 90; tens += 10) units.push_back({tens + 1, tens + 9});
+    return integer_in(std::move(units),
+                      "a drive's own address; 00 and x0 are group addresses: a RECEIVE to them "
+                      "gets no reply, S1 p.8-24");
+}
+
+// The callback's refusal of a code argument.
+void refuse_code(const std::string& argument, const std::string& text, bool extended) {
+    fmt::print(stderr,
+               "ferrule: {}: '{}' is no code: give {}, C0039/3 with a subcode 0-255 (extended "
+               "addressing), or the wire form !CCCCSS\n",
+               argument, text,
+               extended ? std::string("C0-C65535")
+                        : fmt::format("C0-C{} (standard addressing; up to C65535 with --extended)",
+                                      lc::max_standard_code));
+}
+
 } // namespace
 
 void add_lecom(CLI::App& app, int& exit_status) {
@@ -258,9 +272,13 @@ void add_lecom(CLI::App& app, int& exit_status) {
     auto o = std::make_shared<lecom_options>();
 
     const auto add = [lc_app, o, &exit_status](const char* name, const char* help,
-                                               int (*fn)(context&)) {
+                                               int (*fn)(context&), CLI::Validator address,
+                                               const char* address_help) {
         auto* sub = lc_app->add_subcommand(name, help);
-        add_common_options(*sub, o->common, 1);
+        // "Baud rate 1200 … 57600" (S3, lecom.md §2).
+        add_common_options(*sub, o->common,
+                           {1, std::move(address), host_baud_in(1200, 57600, "S3: 1200-57600")});
+        sub->get_option("--address")->description(address_help);
         sub->add_option("--profile", o->profile,
                         "serial format profile: lenze-4900 (9600 8E1, the LECOM paper's drives) "
                         "or lenze-8200 (9600 7E1, Lenze's 8200 / 2102 manuals)")
@@ -270,20 +288,13 @@ void add_lecom(CLI::App& app, int& exit_status) {
         sub->add_flag("--extended", o->extended,
                       "extended code addressing (!CCCCSS) even for codes up to 6229");
         sub->callback([o, fn, &exit_status] {
-            if (o->common.address > lc::max_address) {
-                fmt::print(stderr, "ferrule: --address: LECOM addresses are 00-99\n");
-                exit_status = exit_usage;
-                return;
-            }
-            if (!o->code.empty()) o->codes = {o->code};
+            const bool one = !o->code.empty();
+            if (one) o->codes = {o->code};
             o->parsed.clear();
             for (const auto& text : o->codes) {
                 const auto code = parse_code_arg(text, o->extended);
                 if (!code) {
-                    fmt::print(stderr,
-                               "ferrule: '{}' is no code: C0046, 46, C0039/3 (with subcode), "
-                               "!03EA00; standard addressing ends at C{}\n",
-                               text, lc::max_standard_code);
+                    refuse_code(one ? "code" : "codes", text, o->extended);
                     exit_status = exit_usage;
                     return;
                 }
@@ -293,25 +304,34 @@ void add_lecom(CLI::App& app, int& exit_status) {
         });
         return sub;
     };
+    const auto ms = [](CLI::App* sub, const char* name, unsigned& target, const char* help,
+                       std::int64_t lo) {
+        sub->add_option(name, target, help)
+            ->transform(integer_in(lo, max_ms))
+            ->capture_default_str();
+    };
 
-    auto* read = add("read", "read codes from one drive (RECEIVE)", cmd_read);
+    const char* one_drive = "drive address (C0009): 01-99 without x0";
+    auto* read =
+        add("read", "read codes from one drive (RECEIVE)", cmd_read, drive_address(), one_drive);
     read->add_option("codes", o->codes, "codes, e.g. C0050 C0068 C0039/3")->required();
-    auto* write = add("write", "write a code on one drive, or on a group / all (SEND)", cmd_write);
+    auto* write = add("write", "write a code on one drive, or on a group / all (SEND)", cmd_write,
+                      any_address(), "drive address; 00 all drives, x0 the group x1-x9");
     write->add_option("code", o->code, "code, e.g. C0046")->required();
     write->add_option("value", o->value, "value: 1500, -12.5, H0900, Stext, O0A1B")->required();
-    auto* poll =
-        add("poll", "poll codes of several drives; a live table with online state", cmd_poll);
+    auto* poll = add("poll", "poll codes of several drives; a live table with online state",
+                     cmd_poll, drive_address(), one_drive);
     poll->add_option("codes", o->codes, "codes to poll on every drive")->required();
     poll->add_option("--drives,-d", o->drives, "drive addresses (default: --address)")
-        ->delimiter(',');
-    poll->add_option("--interval", o->interval_ms,
-                     "ms between polls of one item (0: as fast as the line allows)")
-        ->capture_default_str();
+        ->delimiter(',')
+        ->transform(drive_address());
+    ms(poll, "--interval", o->interval_ms,
+       "ms between polls of one item (0: as fast as the line allows)", 0);
     poll->add_option("--cycles,-n", o->cycles, "stop after this many poll cycles (0: never)")
+        ->transform(integer_in(0, max_count))
         ->capture_default_str();
-    poll->add_option("--refresh", o->refresh_ms, "ms between table updates")->capture_default_str();
-    poll->add_option("--gap", o->gap_ms, "ms of silence between transactions")
-        ->capture_default_str();
+    ms(poll, "--refresh", o->refresh_ms, "ms between table updates", 1);
+    ms(poll, "--gap", o->gap_ms, "ms of silence between transactions", 0);
 }
 
 } // namespace ferrule::cli

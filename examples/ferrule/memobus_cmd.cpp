@@ -9,7 +9,6 @@
 #include <asio/ip/udp.hpp>
 
 #include <array>
-#include <charconv>
 #include <optional>
 #include <vector>
 
@@ -128,22 +127,11 @@ mb::register_ref nth(const mb::register_ref& first, std::size_t i) {
     return r;
 }
 
-// "1", "0x04D2", "-1": a register value, or nullopt.
+// "1", "0x04D2", "-1": a register value, signed or unsigned 16 bits, or nullopt.
 std::optional<std::uint16_t> parse_word(const std::string& s) {
-    std::string_view t = s;
-    const bool negative = !t.empty() && t.front() == '-';
-    if (negative) t.remove_prefix(1);
-    int base = 10;
-    if (t.size() > 2 && t[0] == '0' && (t[1] == 'x' || t[1] == 'X')) {
-        t.remove_prefix(2);
-        base = 16;
-    }
-    long v = 0;
-    const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v, base);
-    if (t.empty() || ec != std::errc{} || end != t.data() + t.size()) return std::nullopt;
-    if (negative) v = -v;
-    if (v < -32768 || v > 65535) return std::nullopt;
-    return static_cast<std::uint16_t>(v);
+    const auto v = parse_integer(s);
+    if (!v || *v < -32768 || *v > 65535) return std::nullopt;
+    return static_cast<std::uint16_t>(*v);
 }
 
 std::string sfc_text(mb::sfc f) {
@@ -172,13 +160,16 @@ struct context {
         if (!line) return exit_transport;
         if (auto ec = master.start(r)) return usage(fmt::format("{}: {}", what, ec.message()));
         if (auto ec = line->transact(master)) {
-            // A controller whose channels are all in use accepts and closes at once.
+            // A controller whose channels are all in use accepts and closes at once over TCP,
+            // and drops a command from a new UDP master unanswered.
             const bool closed = ec == ::asio::error::eof || ec == ::asio::error::connection_reset;
-            return report_error(
-                o.common,
+            std::string failed =
                 closed ? what + "; the controller closed the connection (all channels in use?)"
-                       : what,
-                ec, ec.category() == mb::device_category());
+                       : what;
+            if (o.udp && ec == make_error_code(errc::timeout))
+                failed = what + " over UDP; the controller may be unreachable or have no free "
+                                "channel (all in use by other masters)";
+            return report_error(o.common, failed, ec, ec.category() == mb::device_category());
         }
         return std::nullopt;
     }
@@ -199,7 +190,10 @@ int cmd_read(const memobus_options& o) {
             first->kind == mb::register_kind::mb ? mb::sfc::read_coils : mb::sfc::read_input_relays;
         limit = mb::max_read_bits;
         if (mb::bit_address(*first) + o.count > 0x10000u)
-            return usage("the bits go beyond bit address 65535 (word 4095)");
+            return refuse("--count", std::to_string(o.count),
+                          fmt::format("1-{}", 0x10000u - mb::bit_address(*first)),
+                          fmt::format("from {} the bits end at bit address 65535 (word 4095)",
+                                      name_of(*first)));
         r.address = static_cast<std::uint16_t>(mb::bit_address(*first));
     } else {
         const bool hold = first->kind == mb::register_kind::mw;
@@ -208,12 +202,17 @@ int cmd_read(const memobus_options& o) {
                 ? (hold ? mb::sfc::read_holding_registers : mb::sfc::read_input_registers)
                 : (hold ? mb::sfc::read_holding_registers_ext : mb::sfc::read_input_registers_ext);
         limit = o.classic ? mb::max_read_registers : mb::max_read_registers_ext;
-        if (first->word + o.count - 1 > (hold ? 65534u : 65535u))
-            return usage(fmt::format("the registers go beyond {}", hold ? "MW65534" : "IW65535"));
+        const unsigned last = hold ? 65534u : 65535u;
+        if (first->word + o.count - 1 > last)
+            return refuse("--count", std::to_string(o.count),
+                          fmt::format("1-{}", last - first->word + 1),
+                          fmt::format("from {} the registers end at {}", name_of(*first),
+                                      hold ? "MW65534" : "IW65535"));
         r.address = first->word;
     }
-    if (o.count < 1 || o.count > limit)
-        return usage(fmt::format("--count: {} reads 1-{}", sfc_text(r.function), limit));
+    if (o.count > limit)
+        return refuse("--count", std::to_string(o.count), fmt::format("1-{}", limit),
+                      fmt::format("{} reads at most {}", sfc_text(r.function), limit));
     context c(o);
     const std::string what =
         fmt::format("read {} x {} ({})", name_of(*first), o.count, sfc_text(r.function));
@@ -262,7 +261,7 @@ int cmd_write(const memobus_options& o) {
             return usage("the bits go beyond bit address 65535 (word 4095)");
         for (std::size_t i = 0; i < n; ++i) {
             if (o.values[i] != "0" && o.values[i] != "1")
-                return usage(fmt::format("'{}' is no bit value (0 or 1)", o.values[i]));
+                return usage(fmt::format("values: '{}' is no bit value: give 0 or 1", o.values[i]));
             if (o.values[i] == "1")
                 packed[i / 8] = static_cast<std::uint8_t>(packed[i / 8] | 1u << (i % 8));
         }
@@ -277,7 +276,11 @@ int cmd_write(const memobus_options& o) {
     } else {
         for (const auto& v : o.values) {
             const auto w = parse_word(v);
-            if (!w) return usage(fmt::format("'{}' is no register value (-32768-65535)", v));
+            if (!w)
+                return usage(fmt::format(
+                    "values: '{}' is no register value: give -32768 to 65535 (16 bits, signed "
+                    "or unsigned)",
+                    v));
             words.push_back(*w);
         }
         const std::size_t limit = o.classic ? mb::max_write_registers : mb::max_write_registers_ext;
@@ -313,7 +316,6 @@ int cmd_write(const memobus_options& o) {
 int run_memobus(const memobus_options& o, int (*fn)(const memobus_options&)) {
     if (o.host.empty() && !o.common.dry_run)
         return usage("--host: give the controller's IP[:PORT]");
-    if (o.cpu > 0xFF) return usage("--cpu: one byte, destination CPU << 4 | source CPU");
     return fn(o);
 }
 
@@ -331,12 +333,16 @@ void add_memobus(CLI::App& app, int& exit_status) {
                         std::string("controller IP[:PORT] (port ") + default_port + " by default)");
         cmd->add_flag("--udp", o->udp, "UDP instead of TCP");
         cmd->add_option("--local-port", o->local_port,
-                        "bind this local port (the controller's connection table may fix it)");
+                        "bind this local port (the controller's connection table may fix it)")
+            ->transform(integer_in(1, 65535, "a UDP or TCP port"));
         cmd->add_option("--cpu", o->cpu,
                         "CPU byte: destination << 4 | source (0x10: CPU 1 from a PC)")
+            ->transform(integer_in(0, 0xFF, "one byte: destination CPU << 4 | source CPU, §3.2"))
             ->capture_default_str();
-        cmd->add_option("--timeout", o->common.timeout_ms, "response timeout in ms (default 1000)");
-        cmd->add_option("--retries", o->common.retries, "resends after a failed attempt");
+        cmd->add_option("--timeout", o->common.timeout_ms, "response timeout in ms (default 1000)")
+            ->transform(integer_in(1, max_ms));
+        cmd->add_option("--retries", o->common.retries, "resends after a failed attempt")
+            ->transform(integer_in(0, max_retries));
         cmd->add_option("--data-order", o->data_order,
                         "byte order of register data in SFC 03 / 04 / 06 / 10 (uncertain)")
             ->check(CLI::IsMember({"big", "little"}))
@@ -354,8 +360,9 @@ void add_memobus(CLI::App& app, int& exit_status) {
         return cmd;
     };
     auto* read = add("read", "read MW / IW registers or MB / IB bits", cmd_read);
-    read->add_option("--count,-c", o->count, "number of registers or bits")
-        ->check(CLI::Range(1, 2044))
+    read->add_option("--count,-c", o->count,
+                     "number of registers or bits (bits 1-2000; MW / IW 1-2044, --classic 1-125)")
+        ->transform(integer_in(1, mb::max_read_registers_ext, "SFC 09 / 0A's most"))
         ->capture_default_str();
     auto* write = add("write", "write MW registers or MB bits", cmd_write);
     write->add_option("values", o->values, "register values (decimal, 0x hex) or bits 0 / 1")

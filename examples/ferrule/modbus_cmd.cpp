@@ -1,4 +1,5 @@
 // `ferrule modbus …`: Modbus RTU on a serial port or Modbus TCP (read, write, diag, id).
+#include <algorithm>
 #include <array>
 #include <vector>
 
@@ -126,16 +127,41 @@ std::string unit_text(const context& c) {
     return c.broadcast() ? std::string("unit 0 (broadcast)") : fmt::format("unit {}", c.unit());
 }
 
+// RTU unit 0 is the broadcast: every server executes a write and none answers (Serial Line
+// V1.02 §2.2), so nothing else can be broadcast.
+int refuse_broadcast(const char* what) {
+    return refuse("--unit", "0", "1-247",
+                  fmt::format("0 is the RTU broadcast address, and {} cannot be broadcast", what));
+}
+
+// The most values one read of `per` registers (or bits) each can take from `start` (AP §6.1-6.4:
+// 2000 bits, 125 registers); 0 when not even one fits below 65536.
+unsigned max_read_count(unsigned start, bool bits, unsigned per) {
+    const unsigned limit = bits ? mb::max_read_bits : mb::max_read_registers;
+    return std::min(limit, 0x10000 - start) / per;
+}
+
 int cmd_read(context& c) {
-    if (c.broadcast()) return usage("a read cannot be broadcast: give a unit 1-247");
+    if (c.broadcast()) return refuse_broadcast("a read");
     const mb::function fc = read_function(c.o.type);
     const bool bits = fc == mb::function::read_coils || fc == mb::function::read_discrete_inputs;
     const unsigned per = bits ? 1 : registers_per_value(c.type);
+    const unsigned most = max_read_count(c.o.start, bits, per);
+    if (most == 0)
+        return refuse("--start", std::to_string(c.o.start), "0-65534",
+                      fmt::format("a {} value takes 2 registers", c.o.as));
+    if (c.o.count > most) {
+        const bool by_address =
+            0x10000 - c.o.start < (bits ? mb::max_read_bits : mb::max_read_registers);
+        return refuse("--count", std::to_string(c.o.count), fmt::format("1-{}", most),
+                      by_address
+                          ? fmt::format("from --start {} the addresses end at 65535", c.o.start)
+                      : bits ? std::string("one request reads 2000 bits, AP §6.1-6.2")
+                             : fmt::format("one request reads 125 registers, {} per {} "
+                                           "value, AP §6.3-6.4",
+                                           per, c.o.as));
+    }
     const unsigned quantity = c.o.count * per;
-    if (quantity < 1 || quantity > (bits ? mb::max_read_bits : mb::max_read_registers))
-        return usage(fmt::format("--count: one request reads 1-{} {}", bits ? 2000 : 125,
-                                 bits ? "bits" : "registers"));
-    if (c.o.start + quantity > 0x10000) return usage("--start + --count go beyond address 65535");
     mb::request r;
     r.function = fc;
     r.address = static_cast<std::uint16_t>(c.o.start);
@@ -194,7 +220,7 @@ int cmd_write(context& c) {
         for (std::size_t i = 0; i < c.o.values.size(); ++i) {
             const auto& v = c.o.values[i];
             if (v != "0" && v != "1")
-                return usage(fmt::format("'{}' is no coil value (0 or 1)", v));
+                return usage(fmt::format("values: '{}' is no coil value: give 0 or 1", v));
             if (v == "1") packed[i / 8] = static_cast<std::uint8_t>(packed[i / 8] | 1u << (i % 8));
             regs.push_back(v == "1");
         }
@@ -210,7 +236,9 @@ int cmd_write(context& c) {
     } else {
         for (const auto& v : c.o.values) {
             const auto words = parse_value(c.type, v, c.order);
-            if (!words) return usage(fmt::format("'{}' is no {} value", v, c.o.as));
+            if (!words)
+                return usage(fmt::format("values: '{}' is no {} value: give {}", v, c.o.as,
+                                         value_range(c.type)));
             regs.insert(regs.end(), words->begin(), words->end());
         }
         if (regs.size() > mb::max_write_registers)
@@ -225,7 +253,11 @@ int cmd_write(context& c) {
             r.data = std::span<const std::uint8_t>(bytes).first(2 * regs.size());
         }
     }
-    if (c.o.start + regs.size() > 0x10000) return usage("the write goes beyond address 65535");
+    if (c.o.start + regs.size() > 0x10000)
+        return refuse("--start", std::to_string(c.o.start),
+                      fmt::format("0-{}", 0x10000 - regs.size()),
+                      fmt::format("{} {} from it end beyond 65535", regs.size(),
+                                  c.o.type == "coil" ? "coils" : "registers"));
     if (c.o.common.dry_run) return print_request(c, r);
     if (!open_link(c)) return exit_transport;
     std::string values;
@@ -268,7 +300,7 @@ mb::request diag_request(mb::diag_sub sub, std::array<std::uint8_t, 2>& data, st
 }
 
 int cmd_diag(context& c) {
-    if (c.broadcast()) return usage("diagnostics cannot be broadcast: give a unit 1-247");
+    if (c.broadcast()) return refuse_broadcast("diagnostics");
     std::array<std::uint8_t, 2> data{};
     if (c.o.diag == "echo" || c.o.diag == "clear") {
         const bool echo = c.o.diag == "echo";
@@ -307,7 +339,7 @@ int cmd_diag(context& c) {
 }
 
 int cmd_id(context& c) {
-    if (c.broadcast()) return usage("device identification cannot be broadcast: give a unit 1-247");
+    if (c.broadcast()) return refuse_broadcast("device identification");
     mb::request r;
     r.function = mb::function::encapsulated_interface;
     r.read_device_id_code =
@@ -346,11 +378,9 @@ int cmd_id(context& c) {
 int run_modbus(const modbus_options& o, int (*fn)(context&)) {
     const auto f = resolve_format(o.common, mb::default_format);
     if (!f) return usage(fmt::format("--format/--baud: {}", f.error().message()));
-    const bool rtu = o.host.empty();
-    if (o.common.address > (rtu ? mb::max_unit_address : 255u))
-        return usage(rtu ? "--unit: RTU units are 1-247, 0 to broadcast a write"
-                         : "--unit: TCP unit ids are 0-255");
-    if (o.gap_ms && *o.gap_ms < 0) return usage("--gap: a duration in ms, 0 or more");
+    if (o.host.empty() && o.common.address > mb::max_unit_address)
+        return refuse("--unit", std::to_string(o.common.address), "0-247",
+                      "RTU units are 1-247, 0 broadcasts a write, Serial Line V1.02 §2.2");
     context c(o, *f);
     c.type = *parse_value_type(o.as);
     c.order = *parse_word_order(o.word_order);
@@ -369,13 +399,20 @@ void add_modbus(CLI::App& app, int& exit_status) {
     const auto add = [mb_app, o, &exit_status](const char* name, const char* help,
                                                int (*fn)(context&)) {
         auto* sub = mb_app->add_subcommand(name, help);
-        add_common_options(*sub, o->common, 1, "--unit,--address,-a");
-        sub->get_option("--unit")->description("unit id (RTU: 1-247, 0 = broadcast a write)");
+        // Modbus RTU fixes no rate: those a serial port takes.
+        add_common_options(
+            *sub, o->common,
+            {1, integer_in(0, 255, "TCP unit ids 0-255; RTU units 1-247, 0 broadcasts a write"),
+             host_baud_in(1200, 921600, "the rates of a serial port")},
+            "--unit,--address,-a");
+        sub->get_option("--unit")->description(
+            "unit id (RTU: 1-247, 0 = broadcast a write; TCP: 0-255)");
         sub->add_option("--host", o->host,
                         "Modbus TCP server HOST[:PORT] (port 502 by default) instead of --port");
         sub->add_option("--gap", o->gap_ms,
                         "RTU: ms of silence before a request (default t3.5 of the format; 0 on "
-                        "virtual links)");
+                        "virtual links)")
+            ->transform(number_in(0, max_ms));
         sub->callback([o, fn, &exit_status] { exit_status = run_modbus(*o, fn); });
         return sub;
     };
@@ -384,7 +421,7 @@ void add_modbus(CLI::App& app, int& exit_status) {
             ->check(CLI::IsMember(std::move(types)))
             ->capture_default_str();
         sub->add_option("--start,-r", o->start, "first address, 0-based (0-65535; 0x… for hex)")
-            ->check(CLI::Range(0, 65535))
+            ->transform(integer_in(0, 0xFFFF, "a 16-bit protocol address"))
             ->capture_default_str();
         sub->add_option("--as", o->as, "register value type: u16, i16, u32, i32, float, hex")
             ->check(CLI::IsMember({"u16", "i16", "u32", "i32", "float", "hex"}))
@@ -400,8 +437,9 @@ void add_modbus(CLI::App& app, int& exit_status) {
         add("read", "read coils (FC 1), discrete inputs (2), holding (3) or input registers (4)",
             cmd_read);
     typed(read, {"coil", "discrete", "holding", "input"});
-    read->add_option("--count,-c", o->count, "number of values (32-bit types: 2 registers each)")
-        ->check(CLI::Range(1, 2000))
+    read->add_option("--count,-c", o->count,
+                     "number of values: 1-2000 bits, 1-125 registers (32-bit types: 2 each)")
+        ->transform(integer_in(1, mb::max_read_bits, "a read's most, of bits, AP §6.1"))
         ->capture_default_str();
     auto* write = add("write",
                       "write coils (FC 5 one, FC 15 several) or holding registers (FC 6 one, FC 16 "
@@ -414,7 +452,7 @@ void add_modbus(CLI::App& app, int& exit_status) {
         ->check(CLI::IsMember({"echo", "counters", "clear"}))
         ->capture_default_str();
     diag->add_option("--data", o->echo_data, "the data word echo sends")
-        ->check(CLI::Range(0, 65535))
+        ->transform(integer_in(0, 0xFFFF, "one data word"))
         ->capture_default_str();
     auto* id = add("id", "read device identification (FC 43 / MEI 14)", cmd_id);
     id->add_option("--code", o->id_code, "basic, regular or extended objects")

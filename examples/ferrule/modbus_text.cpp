@@ -3,11 +3,11 @@
 #include <fmt/core.h>
 
 #include <array>
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
 
+#include "common.hpp"
 #include "ferrule/modbus/error.hpp"
 
 namespace ferrule::cli {
@@ -55,16 +55,42 @@ std::string value_text(value_type t, std::span<const std::uint16_t> r, mb::word_
 }
 
 namespace {
-// An integer in decimal or 0x hex, within [lo, hi].
-std::optional<std::int64_t> parse_integer(const std::string& s, std::int64_t lo, std::int64_t hi) {
-    if (s.empty()) return std::nullopt;
-    errno = 0;
-    char* end = nullptr;
-    const long long v = std::strtoll(s.c_str(), &end, 0);
-    if (errno != 0 || *end != '\0' || v < lo || v > hi) return std::nullopt;
+
+struct bounds {
+    std::int64_t lo;
+    std::int64_t hi;
+};
+
+bounds bounds_of(value_type t) {
+    switch (t) {
+    case value_type::i16: return {-32768, 32767};
+    case value_type::u32: return {0, 0xFFFFFFFF};
+    case value_type::i32:
+        return {std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::max()};
+    case value_type::u16:
+    case value_type::hex:
+    case value_type::f32: break;
+    }
+    return {0, 0xFFFF};
+}
+
+// An integer (decimal or 0x hex) within the bounds of `t`.
+std::optional<std::int64_t> parse_integer(value_type t, const std::string& s) {
+    const auto v = cli::parse_integer(s);
+    const auto b = bounds_of(t);
+    if (!v || *v < b.lo || *v > b.hi) return std::nullopt;
     return v;
 }
+
 } // namespace
+
+std::string value_range(value_type t) {
+    if (t == value_type::f32) return "a finite 32-bit float";
+    if (t == value_type::hex) return "0x0000-0xFFFF";
+    const auto b = bounds_of(t);
+    const std::array<interval, 1> r{{{b.lo, b.hi}}};
+    return range_text(r);
+}
 
 std::optional<std::vector<std::uint16_t>> parse_value(value_type t, const std::string& s,
                                                       mb::word_order o) {
@@ -72,24 +98,23 @@ std::optional<std::vector<std::uint16_t>> parse_value(value_type t, const std::s
     const auto two = [](std::array<std::uint16_t, 2> a) { return v16{a[0], a[1]}; };
     switch (t) {
     case value_type::u16:
-        if (const auto v = parse_integer(s, 0, 0xFFFF))
+        if (const auto v = parse_integer(t, s))
             return v16{mb::from_u16(static_cast<std::uint16_t>(*v), o)};
         break;
     case value_type::i16:
-        if (const auto v = parse_integer(s, -32768, 32767))
+        if (const auto v = parse_integer(t, s))
             return v16{mb::from_i16(static_cast<std::int16_t>(*v), o)};
         break;
     case value_type::hex:
-        if (const auto v = parse_integer(s.rfind("0x", 0) == 0 ? s : "0x" + s, 0, 0xFFFF))
+        if (const auto v = parse_integer(t, s.rfind("0x", 0) == 0 ? s : "0x" + s))
             return v16{static_cast<std::uint16_t>(*v)};
         break;
     case value_type::u32:
-        if (const auto v = parse_integer(s, 0, 0xFFFFFFFF))
+        if (const auto v = parse_integer(t, s))
             return two(mb::from_u32(static_cast<std::uint32_t>(*v), o));
         break;
     case value_type::i32:
-        if (const auto v = parse_integer(s, std::numeric_limits<std::int32_t>::min(),
-                                         std::numeric_limits<std::int32_t>::max()))
+        if (const auto v = parse_integer(t, s))
             return two(mb::from_i32(static_cast<std::int32_t>(*v), o));
         break;
     case value_type::f32: {

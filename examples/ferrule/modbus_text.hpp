@@ -26,9 +26,12 @@ std::string value_text(value_type t, std::span<const std::uint16_t> regs, modbus
 double value_number(value_type t, std::span<const std::uint16_t> regs, modbus::word_order o);
 
 // "1500", "-3", "0x0025", "12.5" as the registers of one value of type `t`; nullopt when it
-// does not fit.
+// does not fit. Integers are decimal or 0x hex (parse_integer()); `hex` takes the digits alone too.
 std::optional<std::vector<std::uint16_t>> parse_value(value_type t, const std::string& s,
                                                       modbus::word_order o);
+
+// What parse_value() takes for `t`: "0-65535", "-32768 to 32767", …
+std::string value_range(value_type t);
 
 // "read holding registers" for FC 3 …; "function 0x41" for one outside the set.
 std::string function_name(std::uint8_t fc);

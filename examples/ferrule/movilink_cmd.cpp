@@ -1,6 +1,7 @@
 // `ferrule movilink …`: a MOVILINK master on a serial port.
 #include <array>
 #include <chrono>
+#include <limits>
 #include <thread>
 
 #include "commands.hpp"
@@ -260,6 +261,18 @@ int cmd_watch(context& c) {
         c.o.count);
 }
 
+// Addresses (SC01 p.20-22): 0-99 single, 100-199 group, 254 point-to-point, 255 broadcast;
+// 200-253 are none on RS-485. Group and broadcast requests get no reply, so only a write may
+// use them: every other command waits for the drive's answer.
+CLI::Validator address_check(bool needs_reply) {
+    if (needs_reply)
+        return integer_in({{0, 99}, {ml::address_point_to_point, ml::address_point_to_point}},
+                          "0-99 single, 254 point-to-point; group and broadcast addresses "
+                          "get no reply, SC01 p.21");
+    return integer_in({{0, 199}, {ml::address_point_to_point, ml::address_broadcast}},
+                      "0-99 single, 100-199 group, 254 point-to-point, 255 broadcast, SC01 p.20");
+}
+
 } // namespace
 
 void add_movilink(CLI::App& app, int& exit_status) {
@@ -268,44 +281,83 @@ void add_movilink(CLI::App& app, int& exit_status) {
     ml_app->require_subcommand(1);
     auto o = std::make_shared<movilink_options>();
 
-    const auto add = [&](const char* name, const char* help, int (*fn)(context&)) {
+    const auto add = [&](const char* name, const char* help, int (*fn)(context&),
+                         bool needs_reply = true) {
         auto* sub = ml_app->add_subcommand(name, help);
-        add_common_options(*sub, o->common, 1);
+        // 9600 Bd; MOVIDRIVE B (via XT) and the WAGO gateway also 57600 (SC01 p.27, MDXB p.18).
+        add_common_options(*sub, o->common,
+                           {1, address_check(needs_reply),
+                            integer_in({{9600, 9600}, {57600, 57600}}, "SC01 p.27, MDXB p.18")});
+        sub->get_option("--address")
+            ->description(needs_reply ? "drive address: 0-99, 254 point-to-point"
+                                      : "drive address: 0-99, 100-199 group, 254 "
+                                        "point-to-point, 255 broadcast (no reply)");
         sub->callback(
             [o, fn, &exit_status] { exit_status = run_on_port(*o, ml::default_format, fn); });
         return sub;
+    };
+    const auto interval = [&](CLI::App* sub, const char* help) {
+        sub->add_option("--interval", o->interval_ms, help)
+            ->transform(integer_in(0, max_ms))
+            ->capture_default_str();
+    };
+    // PO3: 1 digit = 1 ms, an unsigned word (MTB scaling examples).
+    const auto ramp = [&](CLI::App* sub) {
+        sub->add_option("--ramp", o->ramp_ms, "ramp in ms")
+            ->transform(integer_in(0, 0xFFFF, "PO3 ramp: 16 bits of 1 ms"))
+            ->capture_default_str();
+    };
+    const auto seconds = [&](CLI::App* sub, const char* help) {
+        sub->add_option("--seconds", o->seconds, help)
+            ->transform(number_in(0, 86'400))
+            ->capture_default_str();
+    };
+    const auto subindex = [&](CLI::App* sub) {
+        sub->add_option("--subindex", o->subindex, "subindex (byte 1 of the parameter channel)")
+            ->transform(integer_in(0, 0xFF));
+    };
+    const auto index = [&](CLI::App* sub, const char* help) {
+        sub->add_option("index", o->index, help)
+            ->transform(integer_in(0, 0xFFFF, "16 bits"))
+            ->required();
     };
 
     add("status", "status word, speed, current and heat sink temperature (parameter reads)",
         cmd_status);
     auto* read = add("read", "read a parameter by index", cmd_read);
-    read->add_option("index", o->index, "parameter index, e.g. 8318 or 0x207E (P000)")->required();
-    read->add_option("--subindex", o->subindex, "subindex");
-    auto* write = add("write", "write a parameter by index (volatile unless --eeprom)", cmd_write);
-    write->add_option("index", o->index, "parameter index")->required();
-    write->add_option("value", o->value, "32-bit value in the parameter's unit")->required();
-    write->add_option("--subindex", o->subindex, "subindex");
+    index(read, "parameter index, e.g. 8318 or 0x207E (P000)");
+    subindex(read);
+    auto* write =
+        add("write", "write a parameter by index (volatile unless --eeprom)", cmd_write, false);
+    index(write, "parameter index");
+    write->add_option("value", o->value, "32-bit value in the parameter's unit, signed or unsigned")
+        ->transform(integer_in(std::numeric_limits<std::int32_t>::min(),
+                               std::numeric_limits<std::uint32_t>::max(),
+                               "32 bits, signed or unsigned"))
+        ->required();
+    subindex(write);
     write->add_flag("--eeprom", o->eeprom,
                     "non-volatile write (wears the EEPROM: not for cyclic use)");
     auto* run = add("run", "enable and run at a speed with cyclic 3PD; shows the ramp", cmd_run);
+    // PO2 speed: a signed word of 0.2 rpm per digit, -32768 to 32767 digits (MTB scaling
+    // examples).
     run->add_option("rpm", o->rpm, "speed setpoint in rpm (negative: the other direction)")
+        ->transform(number_in(-6553.6, 6553.4, "PO2 speed: a signed 16-bit word of 0.2 rpm"))
         ->required();
-    run->add_option("--ramp", o->ramp_ms, "ramp in ms")->capture_default_str();
-    run->add_option("--seconds", o->seconds, "stop watching after this long")
-        ->capture_default_str();
-    run->add_option("--interval", o->interval_ms, "ms between progress lines")
-        ->capture_default_str();
+    ramp(run);
+    seconds(run, "stop watching after this long");
+    interval(run, "ms between progress lines");
     auto* stop = add("stop", "stop with the ramp (or --rapid) and wait for standstill", cmd_stop);
     stop->add_flag("--rapid", o->rapid, "rapid stop (control word 0x0000)");
-    stop->add_option("--ramp", o->ramp_ms, "ramp in ms")->capture_default_str();
-    stop->add_option("--seconds", o->seconds, "give up waiting after this long")
-        ->capture_default_str();
-    stop->add_option("--interval", o->interval_ms, "ms between progress lines")
-        ->capture_default_str();
+    ramp(stop);
+    seconds(stop, "give up waiting after this long");
+    interval(stop, "ms between progress lines");
     auto* watch =
         add("watch", "watch process input words without changing the drive's outputs", cmd_watch);
-    watch->add_option("--count", o->count, "lines to print")->capture_default_str();
-    watch->add_option("--interval", o->interval_ms, "ms between lines")->capture_default_str();
+    watch->add_option("--count", o->count, "lines to print")
+        ->transform(integer_in(1, max_count))
+        ->capture_default_str();
+    interval(watch, "ms between lines");
 }
 
 } // namespace ferrule::cli

@@ -336,13 +336,17 @@ int cmd_clear(context& c) {
 int run_profibus(const profibus_options& o, int (*fn)(context&)) {
     const auto f = resolve_format(o.common, pb::format(19'200));
     if (!f) return usage(fmt::format("--format/--baud: {}", f.error().message()));
-    if (o.common.address > pb::max_station_address) return usage("--address: DP slaves are 0-126");
-    if (o.master_address > pb::max_station_address || o.master_address == o.common.address)
-        return usage("--master-address: 0-126, not the slave's address");
-    if (o.watchdog_ms && (*o.watchdog_ms < 10 || *o.watchdog_ms > 255 * 255 * 10))
-        return usage("--watchdog-ms: 10-650250 (WD_Fact_1 x WD_Fact_2 x 10 ms)");
+    if (o.master_address == o.common.address)
+        return usage(fmt::format("--master-address and --address: {} for both; the master and "
+                                 "its slave need two of the station addresses 0-126",
+                                 o.master_address));
     context c(o, *f);
     return fn(c);
+}
+
+// Ident_Numbers are 0x0001-0xFFFE, assigned by PI (§B.8).
+CLI::Validator ident_check() {
+    return integer_in(0x0001, 0xFFFE, "Ident_Number, §B.8");
 }
 
 } // namespace
@@ -357,12 +361,19 @@ void add_profibus(CLI::App& app, int& exit_status) {
     const auto add = [pb_app, o, &exit_status](const char* name, const char* help,
                                                int (*fn)(context&)) {
         auto* sub = pb_app->add_subcommand(name, help);
-        add_common_options(*sub, o->common, 8);
+        // Station addresses 0-126, 127 is the broadcast (§B.3); of the DP rates (9.6 kbit/s to
+        // 12 Mbit/s, §B.1) a serial port sets 9600 and 19200.
+        add_common_options(
+            *sub, o->common,
+            {8, integer_in(0, pb::max_station_address, "DP station addresses"),
+             integer_in({{9600, 9600}, {19200, 19200}}, "the DP rates a serial port sets")});
         sub->get_option("--address")->description("the slave's station address (0-126)");
         sub->get_option("--timeout")
             ->description("slot time in ms: the wait for a reply's first byte (default: 100 tbit "
                           "up to 187.5 kbit/s)");
-        sub->add_option("--master-address", o->master_address, "this master's station address")
+        sub->add_option("--master-address", o->master_address,
+                        "this master's station address (0-126)")
+            ->transform(integer_in(0, pb::max_station_address, "DP station addresses"))
             ->capture_default_str();
         sub->callback([o, fn, &exit_status] { exit_status = run_profibus(*o, fn); });
         return sub;
@@ -370,7 +381,8 @@ void add_profibus(CLI::App& app, int& exit_status) {
     const auto prm = [o](CLI::App* sub) {
         sub->add_option("--watchdog-ms", o->watchdog_ms,
                         "switch the slave's watchdog on with this time (WD_Fact_1 x WD_Fact_2 x "
-                        "10 ms)");
+                        "10 ms)")
+            ->transform(integer_in(10, 255 * 255 * 10, "WD_Fact_1 x WD_Fact_2 x 10 ms"));
         sub->add_flag("--lock", o->lock, "Lock_Req: bind the slave to this master");
         sub->add_option("--user-prm", o->user_prm, "User_Prm_Data in hex");
     };
@@ -379,7 +391,7 @@ void add_profibus(CLI::App& app, int& exit_status) {
         cmd_diag);
     auto* set_prm = add("set-prm", "Set_Prm, then Slave_Diag for the slave's verdict", cmd_set_prm);
     set_prm->add_option("--ident", o->ident, "Ident_Number the slave must have (0x0001-0xFFFE)")
-        ->check(CLI::Range(0x0001, 0xFFFE))
+        ->transform(ident_check())
         ->required();
     prm(set_prm);
     auto* cfg = add("cfg", "Chk_Cfg with these identifier bytes, then Slave_Diag for the verdict",
@@ -393,13 +405,15 @@ void add_profibus(CLI::App& app, int& exit_status) {
     ex->add_option("--out", o->out, "the output bytes in hex, e.g. \"06 C8 00 00 25\"")->required();
     ex->add_option("--count,-c", o->count,
                    "Data_Exchange cycles (a gateway's reply comes with a later one)")
-        ->check(CLI::Range(1, 1'000'000))
+        ->transform(integer_in(1, max_count))
         ->capture_default_str();
-    ex->add_option("--interval-ms", o->interval_ms, "pause between cycles")->capture_default_str();
+    ex->add_option("--interval-ms", o->interval_ms, "pause between cycles")
+        ->transform(integer_in(0, max_ms))
+        ->capture_default_str();
     ex->add_flag("--no-init", o->no_init, "no start-up: the slave is in Data_Exchange already");
     ex->add_option("--ident", o->ident,
                    "start-up: Ident_Number for Set_Prm (default: the one the slave reports)")
-        ->check(CLI::Range(0x0001, 0xFFFE));
+        ->transform(ident_check());
     ex->add_option("--cfg", o->cfg,
                    "start-up: identifier bytes for Chk_Cfg (default: the slave's, from Get_Cfg)");
     prm(ex);

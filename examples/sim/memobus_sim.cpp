@@ -1,13 +1,14 @@
 // ferrule-sim memobus. host::memobus_server serves one register image (MW00000…MW65534,
-// IW0000…IW4095) on one io_context thread, this one; each TCP connection or UDP peer is a
-// channel with the same offsets and write range. A timer on the same io_context moves the
-// live registers, so the image is only ever touched from that thread:
+// IW0000…IW4095) on one io_context thread, this one; each TCP connection or UDP master (an IP
+// address) is a channel with the same offsets and write range. A timer on the same io_context
+// moves the live registers, so the image is only ever touched from that thread:
 //
 //   IW00000  counts up every 100 ms
 //   IW00001  seconds since the start
 //
-// stdout: the TCP address (IP:PORT; with --udp the UDP socket has the same port). stderr, on
-// exit: the server's counts and each channel's.
+// stdout: the TCP address (IP:PORT; with --udp the UDP socket has the same port). stderr: a
+// line for each burst of UDP commands refused for want of a channel, and on exit the server's
+// counts and each channel's.
 #include "memobus_sim.hpp"
 
 #include <fmt/core.h>
@@ -19,6 +20,7 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "ferrule/asio/memobus_server.hpp"
@@ -87,13 +89,44 @@ ferrule::duration seconds(double s) {
     return std::chrono::duration_cast<ferrule::duration>(std::chrono::duration<double>(s));
 }
 
+// One line for the first UDP command refused, then none until `quiet` passes without a
+// refusal: a master that resends, or several at once, make one line; the exit counts have all.
+class refusal_log {
+public:
+    refusal_log(std::size_t channels, double idle_timeout_s)
+        : channels_(channels), idle_timeout_s_(idle_timeout_s) {}
+
+    void operator()(const asio::ip::udp::endpoint& from) {
+        const auto now = std::chrono::steady_clock::now();
+        if (!last_ || now - *last_ >= quiet) {
+            const std::string freed =
+                idle_timeout_s_ == 0
+                    ? std::string("--idle-timeout 0: a silent one is never freed")
+                    : fmt::format("a silent one is freed after {} s", idle_timeout_s_);
+            fmt::print(stderr,
+                       "ferrule-sim: MEMOBUS: no free channel for UDP master {}:{}: all {} in use "
+                       "({}); its commands are dropped, the rest of this burst only counted\n",
+                       from.address().to_string(), from.port(), channels_, freed);
+        }
+        last_ = now;
+    }
+
+private:
+    static constexpr std::chrono::seconds quiet{5};
+    std::size_t channels_;
+    double idle_timeout_s_;
+    std::optional<std::chrono::steady_clock::time_point> last_;
+};
+
 void print_stats(const host::memobus_server<image_type>& server) {
     const auto& s = server.stats();
     fmt::print(stderr,
                "ferrule-sim: MEMOBUS: {} TCP connections ({} refused, {} idle closed, {} request "
-               "timeouts), {} UDP peers ({} datagrams dropped), {} replies\n",
+               "timeouts), {} UDP masters ({} moved to a new port, {} commands refused for want "
+               "of a channel, {} datagrams of no master ignored), {} replies\n",
                s.accepted.load(), s.refused.load(), s.idle_closed.load(), s.request_timeouts.load(),
-               s.udp_peers.load(), s.udp_dropped.load(), s.replies.load());
+               s.udp_peers.load(), s.udp_moved.load(), s.udp_refused.load(), s.udp_ignored.load(),
+               s.replies.load());
     for (std::size_t i = 0; i < server.max_channels(); ++i) {
         const auto c = server.channel_stats(i);
         fmt::print(stderr,
@@ -121,6 +154,9 @@ int serve_memobus(const memobus_sim_options& o, const std::atomic<bool>& stop) {
     std::error_code ec;
     const auto address = asio::ip::make_address(o.bind, ec);
     if (ec) throw CLI::ValidationError("--bind", "not an IP address");
+
+    refusal_log refusals(o.channels, o.idle_timeout_s);
+    so.on_udp_refused = [&refusals](const asio::ip::udp::endpoint& from) { refusals(from); };
 
     asio::io_context ctx;
     const auto image = std::make_unique<image_type>();

@@ -15,7 +15,9 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <memory>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -158,22 +160,29 @@ bool exercise(tcp_master& m, std::uint16_t base, std::uint16_t tag, int rounds) 
     return true;
 }
 
-// A UDP master: one socket, one peer of the server.
+// A UDP master: one socket on an ephemeral port of `from` (any of 127.0.0.0/8 on loopback:
+// the server knows a UDP master by its address).
 struct udp_master {
     asio::io_context ctx;
-    asio::ip::udp::socket socket{ctx,
-                                 asio::ip::udp::endpoint(asio::ip::make_address("127.0.0.1"), 0)};
+    asio::ip::udp::socket socket;
     asio::ip::udp::endpoint server;
     std::uint8_t serial = 0;
     std::array<std::uint8_t, mb::max_message + 1> reply{};
 
-    explicit udp_master(std::uint16_t port) : server(asio::ip::make_address("127.0.0.1"), port) {}
+    explicit udp_master(std::uint16_t port, const char* from = "127.0.0.1")
+        : socket(ctx, asio::ip::udp::endpoint(asio::ip::make_address(from), 0)),
+          server(asio::ip::make_address("127.0.0.1"), port) {}
 
-    result<mb::response> transact(const mb::request& r, std::chrono::milliseconds timeout = 2s) {
+    std::error_code send(const mb::request& r) {
         std::array<std::uint8_t, mb::max_message> out{};
         const auto n = mb::encode_command(r, serial, out);
         if (!n) return n.error();
         socket.send_to(asio::buffer(out.data(), *n), server);
+        return {};
+    }
+
+    result<mb::response> transact(const mb::request& r, std::chrono::milliseconds timeout = 2s) {
+        if (const auto ec = send(r)) return ec;
         ::pollfd p{socket.native_handle(), POLLIN, 0};
         if (::poll(&p, 1, static_cast<int>(timeout.count())) != 1) return errc::timeout;
         asio::ip::udp::endpoint from;
@@ -407,8 +416,8 @@ TEST_CASE("memobus server: UDP peers, each its own channel, within max_channels"
     host::memobus_server_options o;
     o.max_channels = 2;
     running_server s(o);
-    udp_master a(s.server.udp_port());
-    udp_master b(s.server.udp_port());
+    udp_master a(s.server.udp_port(), "127.0.0.1");
+    udp_master b(s.server.udp_port(), "127.0.0.2");
     std::atomic<int> ok{0};
     const auto run = [&](udp_master& m, std::uint16_t base) {
         std::array<std::uint16_t, 16> values{};
@@ -435,10 +444,10 @@ TEST_CASE("memobus server: UDP peers, each its own channel, within max_channels"
     CHECK(s.server.channel_stats(1).requests == 100);
 
     // A third peer finds no free channel: its datagrams are dropped.
-    udp_master c(s.server.udp_port());
+    udp_master c(s.server.udp_port(), "127.0.0.3");
     CHECK(c.transact(make(mb::sfc::read_holding_registers_ext, 0, 1), 200ms).error() ==
           make_error_code(errc::timeout));
-    CHECK(s.server.stats().udp_dropped == 1);
+    CHECK(s.server.stats().udp_refused == 1);
     CHECK(a.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
 }
 
@@ -448,15 +457,15 @@ TEST_CASE("memobus server: a UDP peer silent for idle_timeout gives its channel 
     o.max_channels = 1;
     o.idle_timeout = 100ms;
     running_server s(o);
-    udp_master a(s.server.udp_port());
-    udp_master b(s.server.udp_port());
+    udp_master a(s.server.udp_port(), "127.0.0.1");
+    udp_master b(s.server.udp_port(), "127.0.0.2");
     REQUIRE(a.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
     CHECK(b.transact(make(mb::sfc::read_holding_registers_ext, 0, 1), 50ms).error() ==
           make_error_code(errc::timeout));
     std::this_thread::sleep_for(100ms);
     ++b.serial; // the dropped request's
     CHECK(b.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
-    CHECK(s.server.stats().udp_dropped == 1);
+    CHECK(s.server.stats().udp_refused == 1);
     CHECK(s.server.channel_stats(0).opened == 2);
 }
 
@@ -473,4 +482,102 @@ TEST_CASE("memobus server: a UDP peer silent for idle_timeout gives its channel 
     CHECK(t.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
     CHECK(s.server.stats().accepted == 1);
     CHECK(s.server.stats().refused == 0);
+}
+
+TEST_CASE("memobus server: datagrams that are no command take no UDP channel", "[asio][memobus]") {
+    host::memobus_server_options o;
+    o.max_channels = 4;
+    running_server s(o);
+    // One byte each, from four ports on four addresses: as many as there are channels. (On
+    // loopback a datagram is in the server's socket when send_to returns, so the server reads
+    // them before the master's command below.)
+    const std::array<const char*, 4> from{"127.0.0.2", "127.0.0.3", "127.0.0.4", "127.0.0.5"};
+    const std::array<std::uint8_t, 4> bytes{0x11, 0x19, 0x00, 0xFF};
+    asio::io_context ctx;
+    for (std::size_t i = 0; i < from.size(); ++i) {
+        asio::ip::udp::socket junk(ctx, {asio::ip::make_address(from[i]), 0});
+        junk.send_to(asio::buffer(&bytes[i], 1),
+                     {asio::ip::make_address("127.0.0.1"), s.server.udp_port()});
+    }
+    udp_master m(s.server.udp_port());
+    CHECK(m.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    CHECK(s.server.stats().udp_ignored == 4);
+    CHECK(s.server.stats().udp_peers == 1);
+    CHECK(s.server.stats().udp_refused == 0);
+    CHECK(s.server.open_channels() == 1);
+}
+
+TEST_CASE("memobus server: a UDP master that runs again from new ports keeps one channel",
+          "[asio][memobus]") {
+    host::memobus_server_options o;
+    o.max_channels = 4;
+    running_server s(o);
+    // Six runs of a master one after the other, each from its own ephemeral port, as six runs
+    // of `ferrule memobus read --udp`. (Each socket stays open so that no two share a port.)
+    std::vector<std::unique_ptr<udp_master>> runs;
+    for (int i = 0; i < 6; ++i) {
+        INFO("run " << i + 1);
+        runs.push_back(std::make_unique<udp_master>(s.server.udp_port()));
+        CHECK(runs.back()->transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    }
+    CHECK(s.server.stats().udp_peers == 1);
+    CHECK(s.server.stats().udp_moved == 5);
+    CHECK(s.server.stats().udp_refused == 0);
+    CHECK(s.server.open_channels() == 1);
+    CHECK(s.server.channel_stats(0).opened == 1);
+    CHECK(s.server.channel_stats(0).requests == 6);
+    // The first port, back again, is answered too: two programs on one host share a channel.
+    CHECK(runs.front()->transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    CHECK(s.server.stats().udp_moved == 6);
+    // A TCP master finds a free channel.
+    tcp_master t(s.server.port());
+    CHECK(t.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    CHECK(s.server.stats().accepted == 1);
+    CHECK(s.server.stats().refused == 0);
+}
+
+TEST_CASE("memobus server: a new UDP master with every channel in use is refused, counted and "
+          "reported",
+          "[asio][memobus]") {
+    std::mutex lock;
+    std::condition_variable reported;
+    std::vector<asio::ip::udp::endpoint> refused;
+    host::memobus_server_options o;
+    o.max_channels = 4;
+    o.on_udp_refused = [&](const asio::ip::udp::endpoint& from) {
+        const std::lock_guard<std::mutex> hold(lock);
+        refused.push_back(from);
+        reported.notify_all();
+    };
+    running_server s(o);
+    const std::array<const char*, 4> from{"127.0.0.2", "127.0.0.3", "127.0.0.4", "127.0.0.5"};
+    std::vector<std::unique_ptr<udp_master>> live;
+    for (const char* address : from) {
+        live.push_back(std::make_unique<udp_master>(s.server.udp_port(), address));
+        REQUIRE(live.back()->transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    }
+
+    udp_master fifth(s.server.udp_port(), "127.0.0.1");
+    REQUIRE_FALSE(fifth.send(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    {
+        std::unique_lock<std::mutex> hold(lock);
+        REQUIRE(reported.wait_for(hold, 2s, [&] { return !refused.empty(); }));
+        CHECK(refused.size() == 1);
+        CHECK(refused.front() == fifth.socket.local_endpoint());
+    }
+    CHECK(s.server.stats().udp_refused == 1);
+    CHECK(s.server.stats().udp_peers == 4);
+    CHECK(s.server.open_channels() == 4);
+
+    // Garbage from a sixth address while all are in use is ignored, not refused; the live
+    // masters go on (the server reads the garbage before their commands, see above).
+    asio::io_context ctx;
+    asio::ip::udp::socket junk(ctx, {asio::ip::make_address("127.0.0.6"), 0});
+    const std::array<std::uint8_t, 1> garbage{0x11};
+    junk.send_to(asio::buffer(garbage), {asio::ip::make_address("127.0.0.1"), s.server.udp_port()});
+    for (auto& m : live) CHECK(m->transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
+    CHECK(s.server.stats().udp_ignored == 1);
+    CHECK(s.server.stats().udp_refused == 1);
+    const std::lock_guard<std::mutex> hold(lock);
+    CHECK(refused.size() == 1);
 }

@@ -2,7 +2,11 @@
 import json
 import os
 import subprocess
+import sys
 import tempfile
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import prereq  # noqa: E402
 
 passed = 0
 failed = 0
@@ -16,6 +20,15 @@ def check(name, cond, why=""):
     else:
         failed += 1
         print(f"FAIL {name}: {why}")
+
+
+def require(programs=(), modules=()):
+    """Fails at once, one line per missing program or module, naming its Debian package."""
+    lines = prereq.missing(programs, modules)
+    for line in lines:
+        check("prerequisite", False, line)
+    if lines:
+        sys.exit(summary())
 
 
 def summary():

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """The ferrule CLI against `ferrule-sim memobus` (a simulated MP2310) over TCP and UDP, as
-separate processes; `ferrule decode memobus` on the golden vectors of protocols/memobus.md §8.
+separate processes, and its UDP channels running out; `ferrule decode memobus` on the golden
+vectors of protocols/memobus.md §8.
 
 usage: memobus_cli_test.py <ferrule> <ferrule-sim>
 Each check prints 'ok <name>' or 'FAIL <name>: why'; the last line is 'N passed, M failed'.
@@ -108,8 +109,7 @@ check("decode a general-purpose message", rc == 0 and "general-purpose" in out
       and "0x1234 0xABCD" in out, out)
 
 # The simulated controller over TCP and UDP.
-# Each UDP run of the CLI is a new peer that keeps its channel: 20 channels for all of them.
-sim = MemobusSim("--udp", "--channels", "20")
+sim = MemobusSim("--udp")
 host = ["--host", sim.address]
 rc, out, _ = run("memobus", "write", "MW00100", "1", "2", "0x1234", *host)
 rc2, out2, _ = run("memobus", "read", "MW00100", "-c", "3", *host)
@@ -165,5 +165,52 @@ check("the write range refuses MW02000", rc == 0 and rc2 == 1
 rc, out, err = run("memobus", "read", "MW65000", *host)
 check("the offset pushes MW65000 beyond the image", rc == 1 and "address error" in err, err)
 sim.stop()
+
+# UDP channels (4, a 218IFA's). The Yaskawa sample's SFC 09 command (§8.1 #2).
+command = bytes.fromhex("11 00 00 00 00 00 16 00 00 00 00 00 08 00 20 09 10 00 00 00 0A 00")
+
+
+def udp_from(address):
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind((address, 0))
+    s.settimeout(5)
+    return s
+
+
+sim = MemobusSim("--udp")
+host = ["--host", sim.address]
+sim_port = int(sim.address.split(":")[1])
+# One byte from each of four ports on four addresses: as many as there are channels.
+for i, address in enumerate(["127.0.0.2", "127.0.0.3", "127.0.0.4", "127.0.0.5"]):
+    with udp_from(address) as s:
+        s.sendto(bytes([0x11 + i]), ("127.0.0.1", sim_port))
+# Each run of the CLI sends from a new ephemeral port of 127.0.0.1.
+runs = [run("memobus", "read", "MW00000", "--udp", *host) for _ in range(6)]
+check("garbage takes no channel, and six UDP runs in a row are all answered",
+      all(rc == 0 for rc, _, _ in runs), "\n".join(err for _, _, err in runs))
+rc, out, err = run("memobus", "read", "MW00000", *host)
+check("a TCP master after the six UDP runs is answered", rc == 0, err)
+stats = sim.stop()
+check("the six runs were one UDP master; the garbage is counted", "1 UDP masters (" in stats
+      and "0 commands refused" in stats and "4 datagrams of no master ignored" in stats
+      and "1 TCP connections (0 refused" in stats, stats)
+
+# One channel, held by a master on 127.0.0.2; the CLI on 127.0.0.1 finds none free.
+sim = MemobusSim("--udp", "--channels", "1")
+host = ["--host", sim.address]
+sim_port = int(sim.address.split(":")[1])
+with udp_from("127.0.0.2") as holder:
+    holder.sendto(command, ("127.0.0.1", sim_port))
+    reply, _ = holder.recvfrom(8192)
+    check("the first UDP master holds the only channel", reply[:2] == b"\x19\x00", reply.hex())
+    rc, out, err = run("memobus", "read", "MW00000", "--udp", "--timeout", "200",
+                       "--retries", "2", *host)
+    check("the UDP timeout names a controller with no free channel as one possibility",
+          rc == 3 and "no reply before the response timeout" in err
+          and "may be unreachable or have no free channel" in err, err)
+stats = sim.stop()
+check("ferrule-sim logs one line for the run's three refused commands and counts each",
+      stats.count("no free channel for UDP master 127.0.0.1:") == 1
+      and "3 commands refused for want of a channel" in stats, stats)
 
 sys.exit(summary())

@@ -2,19 +2,17 @@
 """The ferrule CLI against `ferrule-sim modbus` over a pseudo-terminal (RTU) and TCP, as
 separate processes; mbpoll against ferrule-sim's TCP server.
 
-usage: modbus_cli_test.py <ferrule> <ferrule-sim> [mbpoll]
-(without mbpoll, or with a path that is no file, the mbpoll check is left out and says so)
+usage: modbus_cli_test.py <ferrule> <ferrule-sim>
 Each check prints 'ok <name>' or 'FAIL <name>: why'; the last line is 'N passed, M failed'.
 """
-import os
 import socket
 import subprocess
 import sys
 
-from harness import Sim, check, json_lines, summary
+from harness import Sim, check, json_lines, require, summary
 
 ferrule, ferrule_sim = sys.argv[1], sys.argv[2]
-mbpoll = sys.argv[3] if len(sys.argv) > 3 else ""
+require(programs=["mbpoll"])
 
 
 def run(*args, timeout=30):
@@ -165,13 +163,10 @@ rc, out, err = run("modbus", "read", "--host", f"127.0.0.1:{free_port()}")
 check("TCP connection refused", rc == 3 and "connection refused" in err, err)
 
 # mbpoll (libmodbus) reads ferrule-sim's TCP server; its -r is 1-based.
-if os.path.isfile(mbpoll):
-    p = subprocess.run([mbpoll, "-m", "tcp", "-p", str(tcp_port), "-a", "1", "-r", "51202",
-                        "-c", "1", "-1", "127.0.0.1"], capture_output=True, text=True, timeout=30)
-    check("mbpoll reads 0xC801 as reference 51202", p.returncode == 0
-          and "[51202]: \t1500" in p.stdout, p.stdout + p.stderr)
-else:
-    print("mbpoll not given: its check is left out")
+p = subprocess.run(["mbpoll", "-m", "tcp", "-p", str(tcp_port), "-a", "1", "-r", "51202",
+                    "-c", "1", "-1", "127.0.0.1"], capture_output=True, text=True, timeout=30)
+check("mbpoll reads 0xC801 as reference 51202", p.returncode == 0
+      and "[51202]: \t1500" in p.stdout, p.stdout + p.stderr)
 
 stats = sim.stop()
 check("ferrule-sim reports RTU and TCP traffic", "replies" in stats and "TCP:" in stats, stats)

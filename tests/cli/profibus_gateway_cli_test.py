@@ -11,15 +11,15 @@ usage: profibus_gateway_cli_test.py <ferrule> <ferrule-sim>
 Each check prints 'ok <name>' or 'FAIL <name>: why'; the last line is 'N passed, M failed'.
 """
 import os
-import shutil
 import subprocess
 import sys
 import tempfile
 import time
 
-from harness import Sim, check, json_lines, summary
+from harness import Sim, check, json_lines, require, summary
 
 ferrule, ferrule_sim = sys.argv[1], sys.argv[2]
+require(programs=["socat"])
 START = "06 C8 00 00 25"
 
 
@@ -128,30 +128,27 @@ finally:
 
 # The DP side on a serial port: socat makes two linked ptys; the gateway opens one as its DP
 # port, the master the other.
-if shutil.which("socat"):
-    tmp = tempfile.mkdtemp(prefix="ferrule-dp-")
-    a, b = os.path.join(tmp, "gateway"), os.path.join(tmp, "master")
-    socat = subprocess.Popen(["socat", f"pty,raw,echo=0,link={a}", f"pty,raw,echo=0,link={b}"],
-                             stderr=subprocess.DEVNULL)
-    for _ in range(100):
-        if os.path.exists(a) and os.path.exists(b):
-            break
-        time.sleep(0.05)
-    gateway = subprocess.Popen([ferrule_sim, "profibus-gateway", "--dp-port", a],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        first = gateway.stdout.readline().strip()
-        rc, out, err = run("profibus", "exchange", "--out", START, "--count", "6",
-                           "--interval-ms", "50", "--json", "--port", b, "--timeout", "200")
-        j = json_lines(out)
-        check("--dp-port: the gateway on a serial port", first == a and rc == 0 and len(j) == 7
-              and j[-1]["inputs"] == START, first + out + err)
-    finally:
-        gateway.terminate()
-        gateway.wait(timeout=10)
-        socat.terminate()
-        socat.wait(timeout=10)
-else:
-    check("--dp-port: socat is installed", False, "socat not found")
+tmp = tempfile.mkdtemp(prefix="ferrule-dp-")
+a, b = os.path.join(tmp, "gateway"), os.path.join(tmp, "master")
+socat = subprocess.Popen(["socat", f"pty,raw,echo=0,link={a}", f"pty,raw,echo=0,link={b}"],
+                         stderr=subprocess.DEVNULL)
+for _ in range(100):
+    if os.path.exists(a) and os.path.exists(b):
+        break
+    time.sleep(0.05)
+gateway = subprocess.Popen([ferrule_sim, "profibus-gateway", "--dp-port", a],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+try:
+    first = gateway.stdout.readline().strip()
+    rc, out, err = run("profibus", "exchange", "--out", START, "--count", "6",
+                       "--interval-ms", "50", "--json", "--port", b, "--timeout", "200")
+    j = json_lines(out)
+    check("--dp-port: the gateway on a serial port", first == a and rc == 0 and len(j) == 7
+          and j[-1]["inputs"] == START, first + out + err)
+finally:
+    gateway.terminate()
+    gateway.wait(timeout=10)
+    socat.terminate()
+    socat.wait(timeout=10)
 
 sys.exit(summary())

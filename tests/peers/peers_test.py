@@ -16,9 +16,21 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import prereq  # noqa: E402
+
 ferrule_peer, libmodbus_peer, pymodbus_peer = sys.argv[1:4]
-pymodbus = ["/usr/bin/python3", pymodbus_peer]  # Debian's python3-pymodbus
+pymodbus = [prereq.SYSTEM_PYTHON, pymodbus_peer]  # Debian's python3-pymodbus
 passed = failed = 0
+
+# Every peer program and module first: a missing one is one line naming its package.
+missing = prereq.missing(programs=["socat", "mbpoll"],
+                         modules=["pymodbus", "serial", "serial_asyncio"])
+for line in missing:
+    print(f"FAIL prerequisite: {line}")
+if missing:
+    print(f"0 passed, {len(missing)} failed")
+    sys.exit(1)
 
 
 def record(pairing, line):

@@ -3,13 +3,13 @@
 // channel, as an MP2310 serves several PCs on its transmission buffer channels with one
 // MSG-RCV each (seeds/004; protocols/memobus.md §6, §10.4).
 //
-//   * a channel is one TCP connection or one UDP peer (remote address and port), with its own
+//   * a channel is one TCP connection or one UDP master (an IP address, below), with its own
 //     memobus::server session and so its own channel_config (offsets, write range): channel i
 //     takes options.channels[i], or options.channel when there is none; a new connection or
-//     peer takes the lowest free channel
+//     UDP master takes the lowest free channel
 //   * at most `max_channels` at once, TCP and UDP together (218IFA: 4, 218IF: 10, seeds/004;
 //     MotionAPI: 20, §6, §11.4): a TCP connection beyond it is accepted and closed at once
-//     and counted as refused; a datagram from a peer beyond it is dropped and counted
+//     and counted as refused; a command from a UDP master beyond it is refused (below)
 //   * TCP: message_decoder per connection (§2), so a master that sends garbage, half a
 //     header or a header announcing 65535 bytes disturbs only its own channel: its decoder
 //     resynchronises (max_message bounds what it waits for) or waits while the others are
@@ -17,9 +17,21 @@
 //     connection is closed when no message has completed for `idle_timeout`, or when one is
 //     not complete `request_timeout` after its first byte (bytes that form no message count
 //     as one), so a master that sends a byte now and then holds no channel
-//   * UDP: one datagram is one message (§6); a peer silent for `idle_timeout` gives up its
-//     channel when another peer or a TCP connection needs it. A reply the socket does not take at
-//     once is dropped (and counted), as a datagram may be
+//   * UDP: one datagram is one message (§6), and a UDP master is its IP address: one
+//     channel per address, answered at the port its last command came from
+//       - a datagram from no master takes a channel only when it is a 218 command (type 0x11,
+//         both lengths agreeing, §2, §10.1); anything else is dropped and counted (ignored)
+//       - a command from a new port of a master's address moves the master's channel to that
+//         port, offsets and counts and all: a PC program that runs again sends from a new
+//         ephemeral port, and the server answers each datagram before it reads the next, so
+//         the old port has no request outstanding. (An MP's connection table names the PC's
+//         address and port, §6; a master that does not fix its port is known here by its
+//         address. Two programs on one PC share its UDP channel; over TCP each has its own.)
+//       - a master silent for `idle_timeout` gives up its channel when another master or a
+//         TCP connection needs one
+//       - a command from a new address when no channel is free is refused: dropped (UDP has
+//         no refusal a master could see), counted, and passed to `on_udp_refused`
+//     A reply the socket does not take at once is dropped (and counted), as a datagram may be
 //   * replies are sent straight from the session's buffer; only the part a TCP socket does
 //     not take at once is copied to wait for it, and a master that does not read its replies
 //     is not read from while reply_writer::backlog_limit bytes of them wait
@@ -37,6 +49,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <list>
 #include <memory>
 #include <optional>
@@ -61,6 +74,8 @@ struct memobus_server_options {
     // (modbus_tcp_server_options): a message fits a segment or a few, 2 s allow a
     // retransmission.
     duration request_timeout = std::chrono::seconds(2);
+    // Called on the server's thread with the sender of each refused UDP command.
+    std::function<void(const ::asio::ip::udp::endpoint&)> on_udp_refused{};
 };
 
 // Counted on the server's thread, readable from any other.
@@ -69,8 +84,10 @@ struct memobus_server_stats {
     std::atomic<std::uint64_t> refused{0};     // TCP connections over max_channels
     std::atomic<std::uint64_t> idle_closed{0}; // closed after idle_timeout
     std::atomic<std::uint64_t> closed{0};      // by the master, or after an I/O error
-    std::atomic<std::uint64_t> udp_peers{0};   // UDP peers given a channel
-    std::atomic<std::uint64_t> udp_dropped{0}; // datagrams of peers over max_channels
+    std::atomic<std::uint64_t> udp_peers{0};   // UDP masters (addresses) given a channel
+    std::atomic<std::uint64_t> udp_moved{0};   // channels moved to their master's new port
+    std::atomic<std::uint64_t> udp_refused{0}; // commands of new masters, no channel free
+    std::atomic<std::uint64_t> udp_ignored{0}; // datagrams of no master that are no command
     std::atomic<std::uint64_t> udp_unsent{0};  // replies the UDP socket did not take
     std::atomic<std::uint64_t> replies{0};
     // TCP connections closed with a message not complete request_timeout after its first byte
@@ -340,14 +357,12 @@ private:
     }
 
     void on_datagram(std::size_t n) {
-        peer* p = find_peer(udp_from_);
-        if (p == nullptr) {
-            ++stats_.udp_dropped;
-            return;
-        }
-        p->last_activity = steady_now();
         // A datagram longer than max_message fills udp_rx_ and is no message.
-        const std::size_t size = p->session.handle(*this, p->channel, {udp_rx_.data(), n}, udp_tx_);
+        const std::span<const std::uint8_t> datagram(udp_rx_.data(), n);
+        peer* p = find_peer(udp_from_, datagram);
+        if (p == nullptr) return;
+        p->last_activity = steady_now();
+        const std::size_t size = p->session.handle(*this, p->channel, datagram, udp_tx_);
         if (size == 0) return;
         std::error_code ec;
         udp_.send_to(::asio::buffer(udp_tx_.data(), size), p->endpoint, 0, ec);
@@ -369,16 +384,37 @@ private:
         return std::nullopt;
     }
 
-    // The peer's session; a new peer takes a free channel, or one of a peer silent for
-    // idle_timeout. Null when there is none.
-    peer* find_peer(const ::asio::ip::udp::endpoint& from) {
+    // The sender's peer, or null when the datagram is dropped. A sender that is no peer
+    // becomes one only with a command: it takes the channel of its address's peer, a free
+    // channel, or one of a peer silent for idle_timeout.
+    peer* find_peer(const ::asio::ip::udp::endpoint& from, std::span<const std::uint8_t> datagram) {
         for (auto& p : peers_)
             if (p.endpoint == from) return &p;
+        if (!is_command(datagram)) {
+            ++stats_.udp_ignored;
+            return nullptr;
+        }
+        for (auto& p : peers_) {
+            if (p.endpoint.address() != from.address()) continue;
+            p.endpoint = from;
+            ++stats_.udp_moved;
+            return &p;
+        }
         const auto channel = take_or_reclaim();
-        if (!channel) return nullptr;
+        if (!channel) {
+            ++stats_.udp_refused;
+            if (options_.on_udp_refused) options_.on_udp_refused(from);
+            return nullptr;
+        }
         ++stats_.udp_peers;
         peers_.push_back({from, *channel, {memobus::server(config_of(*channel))}, {}});
         return &peers_.back();
+    }
+
+    // A whole 218 command (§2): what a master sends, and what garbage hardly ever is.
+    static bool is_command(std::span<const std::uint8_t> datagram) noexcept {
+        const auto h = memobus::parse_message(datagram);
+        return h && h->type == memobus::command_type::command;
     }
 
     ::asio::ip::tcp::acceptor acceptor_;
