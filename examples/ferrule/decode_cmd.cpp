@@ -238,7 +238,11 @@ void add_decode(CLI::App& app, int& exit_status) {
                 return;
             }
             bytes.assign(std::istreambuf_iterator<char>(in), {});
-        } else if (!parse_hex(o->hex, bytes) || bytes.empty()) {
+        } else if (!parse_hex(o->hex, bytes)) {
+            fmt::print(stderr, "ferrule decode: {}\n", tools::hex_error(o->hex));
+            exit_status = exit_usage;
+            return;
+        } else if (bytes.empty()) {
             fmt::print(stderr, "ferrule decode: give hex bytes (e.g. 02 01 05 ...) or --file\n");
             exit_status = exit_usage;
             return;

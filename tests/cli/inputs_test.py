@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Hostile inputs to ferrule-sim: `--link` on a path that holds something else, on another
-simulator's link and on a stale one.
+"""Hostile inputs to the ferrule CLI and to ferrule-sim: bad hex tokens; `ferrule-sim --link`
+on a path that holds something else, on another simulator's link and on a stale one.
 
 usage: inputs_test.py <ferrule> <ferrule-sim>
 Each check prints 'ok <name>' or 'FAIL <name>: why'; the last line is 'N passed, M failed'.
@@ -17,6 +17,11 @@ ferrule, ferrule_sim = sys.argv[1], sys.argv[2]
 tmp = tempfile.mkdtemp(prefix="ferrule-inputs-")
 
 
+def run(*args, timeout=60):
+    p = subprocess.run([ferrule, *args], capture_output=True, text=True, timeout=timeout)
+    return p.returncode, p.stdout, p.stderr
+
+
 def path(name):
     return os.path.join(tmp, name)
 
@@ -27,6 +32,16 @@ def write(name, data):
     return path(name)
 
 
+# --- hex tokens ------------------------------------------------------------------------------
+
+rc, _, err = run("decode", "movilink", "02", "0G", "05")
+check("a bad hex token is named with its place",
+      rc == 2 and 'hex token 2 "0G"' in err and "'G'" in err, err)
+rc, _, err = run("decode", "movilink", "02 01:zz")
+check("tokens are counted inside an argument", rc == 2 and 'hex token 3 "zz"' in err, err)
+rc, _, err = run("decode", "movilink", "02", "1", "05")
+check("an odd number of digits names the token",
+      rc == 2 and 'hex token 2 "1"' in err and "odd" in err, err)
 # --- ferrule-sim --link ----------------------------------------------------------------------
 
 
