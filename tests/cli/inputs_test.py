@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Hostile inputs to the ferrule CLI and to ferrule-sim: `decode --file` on a directory,
-/dev/zero, an empty file, a pipe and captures longer than one read; bad hex tokens;
-`ferrule-sim --link` on a path that holds something else, on another simulator's link and on
-a stale one.
+/dev/zero, an empty file, a pipe and captures longer than one read; bad hex tokens; --host
+ports out of range; `ferrule-sim --link` on a path that holds something else, on another
+simulator's link and on a stale one.
 
 usage: inputs_test.py <ferrule> <ferrule-sim>
 Each check prints 'ok <name>' or 'FAIL <name>: why'; the last line is 'N passed, M failed'.
@@ -140,6 +140,19 @@ check("an odd number of digits names the token",
       rc == 2 and 'hex token 2 "1"' in err and "odd" in err, err)
 rc, _, err = run("decode", "movilink", "02", "--file", empty)
 check("hex bytes and --file together are a usage error", rc == 2 and "--file" in err, err)
+
+# --- --host ports ----------------------------------------------------------------------------
+
+for host in ["127.0.0.1:99999", "127.0.0.1:0", "127.0.0.1:65536", "127.0.0.1:http",
+             "127.0.0.1:", "127.0.0.1:-1", "127.0.0.1:5 02"]:
+    port = host.split(":", 1)[1]
+    rc, _, err = run("modbus", "read", "-r", "0", "--host", host, "--timeout", "500")
+    check(f"modbus --host {host} is a usage error naming the port",
+          rc == 2 and f"'{port}'" in err and "1-65535" in err and "connect" not in err, err)
+for extra in [[], ["--udp"]]:
+    rc, _, err = run("memobus", "read", "MW00100", "--host", "127.0.0.1:70000", *extra)
+    check(f"memobus --host 127.0.0.1:70000{''.join(' ' + e for e in extra)} is a usage error",
+          rc == 2 and "'70000'" in err and "1-65535" in err, err)
 
 # --- ferrule-sim --link ----------------------------------------------------------------------
 
