@@ -1,6 +1,13 @@
 // `ferrule decode <protocol> <hex…> | --file capture.bin`: frames and decodes captured bytes.
-#include <fstream>
-#include <iterator>
+// A file is read in pieces and decoded as they come, so a pipe or a device works too and
+// memory stays bounded (docs/cli.md).
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <system_error>
 #include <vector>
 
 #include "commands.hpp"
@@ -93,126 +100,245 @@ void print_movilink_frame(const decode_options& o, std::size_t offset,
 
 // A capture has no idle gaps, so telegrams are taken back to back: after each telegram the
 // next byte may start one; after an error one byte is skipped and framing tries again.
-// Exit code 1 when any bytes were not a telegram.
-int decode_movilink(const decode_options& o, std::span<const std::uint8_t> bytes) {
-    bool clean = true;
-    std::size_t pos = 0;
-    std::size_t junk_from = 0;
-    std::string junk_reason;
-    const auto flush_junk = [&] {
-        if (pos > junk_from) {
-            print_skipped(o, junk_from, bytes.subspan(junk_from, pos - junk_from), junk_reason);
-            clean = false;
+class movilink_decoder final : public capture_decoder {
+public:
+    explicit movilink_decoder(const decode_options& o) : o_(o) {}
+
+    std::size_t decode(std::span<const std::uint8_t> bytes, std::size_t offset, bool end) override {
+        const std::size_t stop = offset + bytes.size();
+        const auto at = [&](std::size_t from, std::size_t to) {
+            return capture_span(bytes, offset, from, to);
+        };
+        while (pos_ < stop) {
+            ml::decoder d;
+            d.idle();
+            const auto s = d.feed(at(pos_, stop));
+            if (s.status == ml::decoder::status::frame) {
+                flush_junk(at(junk_from_, pos_));
+                print_movilink_frame(o_, pos_, d.frame());
+                pos_ += s.consumed;
+                junk_from_ = pos_;
+            } else if (s.status == ml::decoder::status::need_more) {
+                if (!end) return junk_from_; // the rest of the telegram is still to come
+                flush_junk(at(junk_from_, pos_));
+                junk_from_ = pos_;
+                junk_reason_ = "incomplete telegram";
+                pos_ = stop;
+            } else {
+                if (junk_from_ == pos_) junk_reason_ = s.ec.message();
+                ++pos_;
+            }
         }
-    };
-    while (pos < bytes.size()) {
-        ml::decoder d;
-        d.idle();
-        const auto s = d.feed(bytes.subspan(pos));
-        if (s.status == ml::decoder::status::frame) {
-            flush_junk();
-            print_movilink_frame(o, pos, d.frame());
-            pos += s.consumed;
-            junk_from = pos;
-        } else if (s.status == ml::decoder::status::need_more) {
-            flush_junk();
-            junk_from = pos;
-            junk_reason = "incomplete telegram";
-            pos = bytes.size();
+        if (end) {
+            flush_junk(at(junk_from_, pos_));
+            junk_from_ = pos_;
+        }
+        return junk_from_;
+    }
+
+private:
+    void flush_junk(std::span<const std::uint8_t> junk) {
+        if (junk.empty()) return;
+        print_skipped(o_, junk_from_, junk, junk_reason_);
+        clean_ = false;
+    }
+
+    const decode_options& o_;
+    std::size_t pos_ = 0;       // the next byte that may start a telegram
+    std::size_t junk_from_ = 0; // bytes from here to pos_ form none
+    std::string junk_reason_;
+};
+
+// Dimetix: lines ended by CR LF; each is a request (sN…) or an answer (gN…). Prints one line;
+// false when it is not understood.
+bool print_dimetix_line(const decode_options& o, std::size_t start,
+                        std::span<const std::uint8_t> line) {
+    bool clean = true;
+    const std::string text(reinterpret_cast<const char*>(line.data()), line.size());
+    nlohmann::json j{{"offset", start}, {"text", text}};
+    std::string out = fmt::format("@{:<4} {:<34}", start, text);
+    if (!line.empty() && line[0] == 's') {
+        const auto c = dx::parse_request(line);
+        if (!c) {
+            j["error"] = c.error().message();
+            out += fmt::format(" request, not understood ({})", c.error().message());
+            clean = false;
         } else {
-            if (junk_from == pos) junk_reason = s.ec.message();
-            ++pos;
+            j["direction"] = "request";
+            j["mnemonic"] = std::string(c->mnemonic.view());
+            j["params"] = std::vector<std::int32_t>(c->parameters().begin(), c->parameters().end());
+            if (c->id != dx::command::no_id) j["id"] = c->id;
+            out += fmt::format(" request to {} command '{}'",
+                               c->id == dx::command::no_id ? std::string("all")
+                                                           : fmt::format("sensor {}", c->id),
+                               c->mnemonic.view());
+            for (auto v : c->parameters()) out += fmt::format(" {}", v);
+        }
+    } else {
+        const auto r = dx::parse_reply(line);
+        if (!r) {
+            j["error"] = r.error().message();
+            out += fmt::format(" not an answer ({})", r.error().message());
+            clean = false;
+        } else {
+            j["direction"] = "answer";
+            j["id"] = r->id;
+            j["mnemonic"] = std::string(r->mnemonic.view());
+            j["values"] = std::vector<std::int32_t>(r->value_span().begin(), r->value_span().end());
+            switch (r->kind) {
+            case dx::reply_kind::startup_or_ack:
+                out += fmt::format(" answer of sensor {}: ok / startup", r->id);
+                break;
+            case dx::reply_kind::set_ack:
+                out += fmt::format(" answer of sensor {}: '{}' set", r->id, r->mnemonic.view());
+                break;
+            case dx::reply_kind::value:
+                out += fmt::format(" answer of sensor {} to '{}':", r->id, r->mnemonic.view());
+                for (auto v : r->value_span()) out += fmt::format(" {}", v);
+                if (r->mnemonic.view() == "g" && r->count > 0)
+                    out += fmt::format(" (distance {:.1f} mm)", r->values[0] / 10.0);
+                break;
+            case dx::reply_kind::error: {
+                const auto ec = dx::make_device_error(r->error_code);
+                j["error_code"] = r->error_code;
+                j["error"] = ec.message();
+                out += fmt::format(" ERROR of sensor {}: {}", r->id, ec.message());
+                break;
+            }
+            }
+            if (r->buffer_status >= 0) {
+                j["buffer_status"] = r->buffer_status;
+                out += fmt::format(", buffer status {}", r->buffer_status);
+            }
         }
     }
-    flush_junk();
-    return clean ? exit_ok : exit_device_error;
+    if (o.json)
+        fmt::print("{}\n", j.dump());
+    else
+        fmt::print("{}\n", out);
+    return clean;
 }
 
-// Dimetix: lines ended by CR LF; each is a request (sN…) or an answer (gN…).
-int decode_dimetix(const decode_options& o, std::span<const std::uint8_t> bytes) {
-    bool clean = true;
-    dx::line_decoder d;
-    std::size_t pos = 0;
-    while (pos < bytes.size()) {
-        const std::size_t start = pos;
-        const auto s = d.feed(bytes.subspan(pos));
-        pos += s.consumed;
-        if (s.what == dx::line_decoder::status::need_more) {
-            print_skipped(o, start, bytes.subspan(start), "no CR LF at the end");
-            return exit_device_error;
-        }
-        if (s.what == dx::line_decoder::status::error) {
-            print_skipped(o, start, bytes.subspan(start, pos - start), "not a Dimetix line");
-            clean = false;
-            continue;
-        }
-        const auto line = d.line();
-        const std::string text(reinterpret_cast<const char*>(line.data()), line.size());
-        nlohmann::json j{{"offset", start}, {"text", text}};
-        std::string out = fmt::format("@{:<4} {:<34}", start, text);
-        if (!line.empty() && line[0] == 's') {
-            const auto c = dx::parse_request(line);
-            if (!c) {
-                j["error"] = c.error().message();
-                out += fmt::format(" request, not understood ({})", c.error().message());
-                clean = false;
+class dimetix_decoder final : public capture_decoder {
+public:
+    explicit dimetix_decoder(const decode_options& o) : o_(o) {}
+
+    std::size_t decode(std::span<const std::uint8_t> bytes, std::size_t offset, bool end) override {
+        const std::size_t stop = offset + bytes.size();
+        while (pos_ < stop) {
+            const auto s = d_.feed(capture_span(bytes, offset, pos_, stop));
+            pos_ += s.consumed;
+            if (s.what == dx::line_decoder::status::need_more) break;
+            if (s.what == dx::line_decoder::status::error) {
+                print_skipped(o_, start_, capture_span(bytes, offset, start_, pos_),
+                              "not a Dimetix line");
+                clean_ = false;
             } else {
-                j["direction"] = "request";
-                j["mnemonic"] = std::string(c->mnemonic.view());
-                j["params"] =
-                    std::vector<std::int32_t>(c->parameters().begin(), c->parameters().end());
-                if (c->id != dx::command::no_id) j["id"] = c->id;
-                out += fmt::format(" request to {} command '{}'",
-                                   c->id == dx::command::no_id ? std::string("all")
-                                                               : fmt::format("sensor {}", c->id),
-                                   c->mnemonic.view());
-                for (auto v : c->parameters()) out += fmt::format(" {}", v);
+                clean_ = print_dimetix_line(o_, start_, d_.line()) && clean_;
             }
-        } else {
-            const auto r = dx::parse_reply(line);
-            if (!r) {
-                j["error"] = r.error().message();
-                out += fmt::format(" not an answer ({})", r.error().message());
-                clean = false;
-            } else {
-                j["direction"] = "answer";
-                j["id"] = r->id;
-                j["mnemonic"] = std::string(r->mnemonic.view());
-                j["values"] =
-                    std::vector<std::int32_t>(r->value_span().begin(), r->value_span().end());
-                switch (r->kind) {
-                case dx::reply_kind::startup_or_ack:
-                    out += fmt::format(" answer of sensor {}: ok / startup", r->id);
-                    break;
-                case dx::reply_kind::set_ack:
-                    out += fmt::format(" answer of sensor {}: '{}' set", r->id, r->mnemonic.view());
-                    break;
-                case dx::reply_kind::value:
-                    out += fmt::format(" answer of sensor {} to '{}':", r->id, r->mnemonic.view());
-                    for (auto v : r->value_span()) out += fmt::format(" {}", v);
-                    if (r->mnemonic.view() == "g" && r->count > 0)
-                        out += fmt::format(" (distance {:.1f} mm)", r->values[0] / 10.0);
-                    break;
-                case dx::reply_kind::error: {
-                    const auto ec = dx::make_device_error(r->error_code);
-                    j["error_code"] = r->error_code;
-                    j["error"] = ec.message();
-                    out += fmt::format(" ERROR of sensor {}: {}", r->id, ec.message());
-                    break;
-                }
-                }
-                if (r->buffer_status >= 0) {
-                    j["buffer_status"] = r->buffer_status;
-                    out += fmt::format(", buffer status {}", r->buffer_status);
-                }
-            }
+            start_ = pos_;
         }
-        if (o.json)
-            fmt::print("{}\n", j.dump());
-        else
-            fmt::print("{}\n", out);
+        if (end && start_ < stop) {
+            print_skipped(o_, start_, capture_span(bytes, offset, start_, stop),
+                          "no CR LF at the end");
+            clean_ = false;
+            start_ = stop;
+        }
+        return start_;
     }
-    return clean ? exit_ok : exit_device_error;
+
+private:
+    const decode_options& o_;
+    dx::line_decoder d_;
+    std::size_t pos_ = 0;   // bytes fed to d_
+    std::size_t start_ = 0; // where the line d_ is on began
+};
+
+std::unique_ptr<capture_decoder> make_decoder(const decode_options& o) {
+    if (o.protocol == "dimetix") return std::make_unique<dimetix_decoder>(o);
+    if (o.protocol == "lecom") return lecom_capture(o);
+    if (o.protocol == "modbus-rtu") return modbus_rtu_capture(o);
+    if (o.protocol == "modbus-tcp") return modbus_tcp_capture(o);
+    if (o.protocol == "profibus") return profibus_capture(o);
+    if (o.protocol == "memobus") return memobus_capture(o);
+    return std::make_unique<movilink_decoder>(o);
+}
+
+int usage(const std::string& why) {
+    fmt::print(stderr, "ferrule decode: {}\n", why);
+    return exit_usage;
+}
+
+class file_descriptor {
+public:
+    explicit file_descriptor(int fd) noexcept : fd_(fd) {}
+    file_descriptor(const file_descriptor&) = delete;
+    file_descriptor& operator=(const file_descriptor&) = delete;
+    ~file_descriptor() {
+        if (fd_ >= 0) ::close(fd_);
+    }
+    int get() const noexcept { return fd_; }
+
+private:
+    int fd_;
+};
+
+// Reads into `out`: how many bytes (0 at the end of the file), or -1 with errno.
+ssize_t read_some(int fd, std::span<std::uint8_t> out) {
+    for (;;) {
+        const ssize_t n = ::read(fd, out.data(), out.size());
+        if (n >= 0 || errno != EINTR) return n;
+    }
+}
+
+std::string read_error(const std::string& file, std::size_t read, std::error_code ec) {
+    if (read == 0) return fmt::format("cannot read {}: {}", file, ec.message());
+    return fmt::format("cannot read {} beyond offset {}: {}", file, read, ec.message());
+}
+
+// The capture in --file, read a piece at a time and decoded as it comes: the bytes held are
+// those the decoder is not done with, never more than --max-junk.
+int decode_file(const decode_options& o, capture_decoder& d) {
+    constexpr std::size_t piece = 4096;
+    const file_descriptor file(::open(o.file.c_str(), O_RDONLY | O_CLOEXEC));
+    if (file.get() < 0) return usage(read_error(o.file, 0, {errno, std::generic_category()}));
+    std::vector<std::uint8_t> held;
+    held.reserve(o.max_junk);
+    std::size_t offset = 0; // of held[0] in the capture
+    for (;;) {
+        const std::size_t before = held.size();
+        held.resize(before + std::min(piece, o.max_junk - before));
+        const ssize_t n = read_some(file.get(), std::span(held).subspan(before));
+        if (n < 0) {
+            const std::error_code ec(errno, std::generic_category());
+            held.resize(before);
+            d.decode(held, offset, true);
+            return usage(read_error(o.file, offset + before, ec));
+        }
+        held.resize(before + static_cast<std::size_t>(n));
+        if (n == 0) break;
+        const std::size_t done = d.decode(held, offset, false);
+        held.erase(held.begin(), held.begin() + static_cast<std::ptrdiff_t>(done - offset));
+        offset = done;
+        std::fflush(stdout);
+        if (held.size() == o.max_junk) {
+            d.decode(held, offset, true);
+            return usage(fmt::format("{}: no {} telegram in the {} bytes from offset {}; stopped "
+                                     "there (--max-junk sets how many)",
+                                     o.file, o.protocol, o.max_junk, offset));
+        }
+    }
+    if (offset + held.size() == 0) return usage(fmt::format("{} is empty: no bytes", o.file));
+    d.decode(held, offset, true);
+    return d.clean() ? exit_ok : exit_device_error;
+}
+
+int decode_hex(const decode_options& o, capture_decoder& d) {
+    std::vector<std::uint8_t> bytes;
+    if (!parse_hex(o.hex, bytes)) return usage(tools::hex_error(o.hex));
+    if (bytes.empty()) return usage("give hex bytes (e.g. 02 01 05 ...) or --file");
+    d.decode(bytes, 0, true);
+    return d.clean() ? exit_ok : exit_device_error;
 }
 
 } // namespace
@@ -225,38 +351,20 @@ void add_decode(CLI::App& app, int& exit_status) {
         ->required()
         ->check(CLI::IsMember(
             {"movilink", "dimetix", "lecom", "modbus-rtu", "modbus-tcp", "profibus", "memobus"}));
-    sub->add_option("bytes", o->hex, "hex bytes, e.g. 02 01 05 00 06 3A 98 01 F4 57");
-    sub->add_option("--file", o->file, "binary capture file instead of hex bytes");
+    auto* hex_bytes =
+        sub->add_option("bytes", o->hex, "hex bytes, e.g. 02 01 05 00 06 3A 98 01 F4 57");
+    sub->add_option("--file", o->file,
+                    "binary capture file (or pipe, device) instead of hex bytes, decoded as it "
+                    "is read")
+        ->excludes(hex_bytes);
+    sub->add_option("--max-junk", o->max_junk,
+                    "--file: stop after this many bytes in a row that hold no telegram")
+        ->check(CLI::Range(min_max_junk, std::size_t{16} << 20))
+        ->capture_default_str();
     sub->add_flag("--json", o->json, "one JSON object per frame");
     sub->callback([o, &exit_status] {
-        std::vector<std::uint8_t> bytes;
-        if (!o->file.empty()) {
-            std::ifstream in(o->file, std::ios::binary);
-            if (!in) {
-                fmt::print(stderr, "ferrule decode: cannot read {}\n", o->file);
-                exit_status = exit_usage;
-                return;
-            }
-            bytes.assign(std::istreambuf_iterator<char>(in), {});
-        } else if (!parse_hex(o->hex, bytes) || bytes.empty()) {
-            fmt::print(stderr, "ferrule decode: give hex bytes (e.g. 02 01 05 ...) or --file\n");
-            exit_status = exit_usage;
-            return;
-        }
-        if (o->protocol == "dimetix")
-            exit_status = decode_dimetix(*o, bytes);
-        else if (o->protocol == "lecom")
-            exit_status = decode_lecom(*o, bytes);
-        else if (o->protocol == "modbus-rtu")
-            exit_status = decode_modbus_rtu(*o, bytes);
-        else if (o->protocol == "modbus-tcp")
-            exit_status = decode_modbus_tcp(*o, bytes);
-        else if (o->protocol == "profibus")
-            exit_status = decode_profibus(*o, bytes);
-        else if (o->protocol == "memobus")
-            exit_status = decode_memobus(*o, bytes);
-        else
-            exit_status = decode_movilink(*o, bytes);
+        const auto d = make_decoder(*o);
+        exit_status = o->file.empty() ? decode_hex(*o, *d) : decode_file(*o, *d);
     });
 }
 

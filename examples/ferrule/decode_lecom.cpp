@@ -122,35 +122,52 @@ bool print_frame(const decode_options& o, std::size_t offset, std::span<const st
     return true;
 }
 
+// Telegrams are taken back to back; bytes between them that form none are shown as such.
+class lecom_decoder final : public capture_decoder {
+public:
+    explicit lecom_decoder(const decode_options& o) : o_(o) {}
+
+    std::size_t decode(std::span<const std::uint8_t> bytes, std::size_t offset, bool end) override {
+        const std::size_t stop = offset + bytes.size();
+        while (pos_ < stop) {
+            const auto s = d_.feed(capture_span(bytes, offset, pos_, stop));
+            pos_ += s.consumed;
+            if (s.what == lc::frame_decoder::status::frame) take(bytes, offset);
+        }
+        if (!end) return last_end_;
+        if (d_.finish().what == lc::frame_decoder::status::frame) take(bytes, offset);
+        if (last_end_ < stop) {
+            print_skipped(o_, last_end_, capture_span(bytes, offset, last_end_, stop),
+                          "incomplete or not a telegram");
+            clean_ = false;
+            last_end_ = stop;
+        }
+        return last_end_;
+    }
+
+private:
+    // The telegram d_ yielded, ending at pos_, and the bytes before it that form none.
+    void take(std::span<const std::uint8_t> bytes, std::size_t offset) {
+        const std::size_t start = pos_ - d_.frame().size();
+        if (start > last_end_) {
+            print_skipped(o_, last_end_, capture_span(bytes, offset, last_end_, start),
+                          "not a LECOM telegram");
+            clean_ = false;
+        }
+        clean_ = print_frame(o_, start, d_.frame()) && clean_;
+        last_end_ = pos_;
+    }
+
+    const decode_options& o_;
+    lc::frame_decoder d_{lc::frame_decoder::accept::both};
+    std::size_t pos_ = 0;      // bytes fed to d_
+    std::size_t last_end_ = 0; // the end of the last telegram
+};
+
 } // namespace
 
-// Telegrams are taken back to back; bytes between them that form none are shown as such.
-int decode_lecom(const decode_options& o, std::span<const std::uint8_t> bytes) {
-    bool clean = true;
-    lc::frame_decoder d(lc::frame_decoder::accept::both);
-    std::size_t pos = 0;
-    std::size_t last_end = 0;
-    const auto take = [&](std::size_t end) {
-        const std::size_t start = end - d.frame().size();
-        if (start > last_end) {
-            print_skipped(o, last_end, bytes.subspan(last_end, start - last_end),
-                          "not a LECOM telegram");
-            clean = false;
-        }
-        clean = print_frame(o, start, d.frame()) && clean;
-        last_end = end;
-    };
-    while (pos < bytes.size()) {
-        const auto s = d.feed(bytes.subspan(pos));
-        pos += s.consumed;
-        if (s.what == lc::frame_decoder::status::frame) take(pos);
-    }
-    if (d.finish().what == lc::frame_decoder::status::frame) take(pos);
-    if (last_end < bytes.size()) {
-        print_skipped(o, last_end, bytes.subspan(last_end), "incomplete or not a telegram");
-        clean = false;
-    }
-    return clean ? exit_ok : exit_device_error;
+std::unique_ptr<capture_decoder> lecom_capture(const decode_options& o) {
+    return std::make_unique<lecom_decoder>(o);
 }
 
 } // namespace ferrule::cli

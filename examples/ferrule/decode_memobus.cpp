@@ -347,32 +347,49 @@ bool print_message(const decode_options& o, std::size_t offset, std::span<const 
     return finish(fmt::format("{}: {}", head, *fields));
 }
 
+class memobus_decoder final : public capture_decoder {
+public:
+    explicit memobus_decoder(const decode_options& o) : o_(o) {}
+
+    std::size_t decode(std::span<const std::uint8_t> bytes, std::size_t offset, bool end) override {
+        const std::size_t stop = offset + bytes.size();
+        while (pos_ < stop) {
+            const auto s = d_.feed(capture_span(bytes, offset, pos_, stop));
+            pos_ += s.consumed;
+            if (s.what == mb::message_decoder::status::frame) take(bytes, offset);
+        }
+        if (end && last_end_ < stop) {
+            print_junk(o_, last_end_, capture_span(bytes, offset, last_end_, stop));
+            clean_ = false;
+            last_end_ = stop;
+        }
+        return last_end_;
+    }
+
+private:
+    // The message d_ yielded, ending at pos_, and the bytes before it that form none.
+    void take(std::span<const std::uint8_t> bytes, std::size_t offset) {
+        const auto m = d_.message();
+        const std::size_t start = pos_ - m.size();
+        if (start > last_end_) {
+            print_junk(o_, last_end_, capture_span(bytes, offset, last_end_, start));
+            clean_ = false;
+        }
+        last_end_ = pos_;
+        clean_ = print_message(o_, start, m, asked_) && clean_;
+    }
+
+    const decode_options& o_;
+    pending asked_;
+    mb::message_decoder d_;
+    std::size_t pos_ = 0;      // bytes fed to d_
+    std::size_t last_end_ = 0; // the end of the last message
+};
+
 } // namespace
 
-int decode_memobus(const decode_options& o, std::span<const std::uint8_t> bytes) {
-    bool clean = true;
-    pending asked;
-    mb::message_decoder d;
-    std::size_t pos = 0;
-    std::size_t last_end = 0;
-    while (pos < bytes.size()) {
-        const auto s = d.feed(bytes.subspan(pos));
-        pos += s.consumed;
-        if (s.what != mb::message_decoder::status::frame) continue;
-        const auto m = d.message();
-        const std::size_t start = pos - m.size();
-        if (start > last_end) {
-            print_junk(o, last_end, bytes.subspan(last_end, start - last_end));
-            clean = false;
-        }
-        last_end = pos;
-        clean = print_message(o, start, m, asked) && clean;
-    }
-    if (last_end < bytes.size()) {
-        print_junk(o, last_end, bytes.subspan(last_end));
-        clean = false;
-    }
-    return clean ? exit_ok : exit_device_error;
+std::unique_ptr<capture_decoder> memobus_capture(const decode_options& o) {
+    return std::make_unique<memobus_decoder>(o);
 }
 
 } // namespace ferrule::cli

@@ -236,7 +236,11 @@ void print(const decode_options& o, const nlohmann::json& j, const std::string& 
         fmt::print("{}\n", text);
 }
 
-// Where an RTU frame of `mode` with a good CRC starts at bytes[0]: its size, else 0.
+// rtu_frame_at(): the bytes end before it is known whether a frame starts there.
+constexpr std::size_t undecided = static_cast<std::size_t>(-1);
+
+// Where an RTU frame of `mode` with a good CRC starts at bytes[0]: its size; 0 when none
+// does; `undecided` when more bytes are needed to tell.
 std::size_t rtu_frame_at(std::span<const std::uint8_t> bytes, mb::rtu_decoder::accept mode) {
     mb::rtu_decoder d(mode);
     std::size_t used = 0;
@@ -247,7 +251,8 @@ std::size_t rtu_frame_at(std::span<const std::uint8_t> bytes, mb::rtu_decoder::a
             const std::size_t start = used - d.adu().size();
             return start == 0 ? d.adu().size() : 0;
         }
-        if (s.what == mb::rtu_decoder::status::need_more || d.skipped() > 0) return 0;
+        if (d.skipped() > 0) return 0;
+        if (s.what == mb::rtu_decoder::status::need_more) return undecided;
     }
 }
 
@@ -260,52 +265,70 @@ bool framed_exactly(std::span<const std::uint8_t> bytes) {
     return false;
 }
 
-} // namespace
+class rtu_capture final : public capture_decoder {
+public:
+    explicit rtu_capture(const decode_options& o) : o_(o) {}
 
-int decode_modbus_rtu(const decode_options& o, std::span<const std::uint8_t> bytes) {
-    using accept = mb::rtu_decoder::accept;
-    bool clean = true;
-    pending asked;
-    std::size_t pos = 0;
-    std::size_t junk_from = 0;
+    std::size_t decode(std::span<const std::uint8_t> bytes, std::size_t offset, bool end) override {
+        using accept = mb::rtu_decoder::accept;
+        const std::size_t stop = offset + bytes.size();
+        while (pos_ < stop) {
+            const auto rest = capture_span(bytes, offset, pos_, stop);
+            std::size_t as_request = rtu_frame_at(rest, accept::requests);
+            std::size_t as_response = rtu_frame_at(rest, accept::responses);
+            // Both framings are needed to choose: wait for the bytes that tell.
+            if (!end && (as_request == undecided || as_response == undecided)) break;
+            if (as_request == undecided) as_request = 0;
+            if (as_response == undecided) as_response = 0;
+            if (as_request == 0 && as_response == 0) {
+                ++pos_;
+                continue;
+            }
+            flush_junk(capture_span(bytes, offset, junk_from_, pos_));
+            print_frame(rest, as_request, as_response);
+            junk_from_ = pos_;
+        }
+        if (end) {
+            flush_junk(capture_span(bytes, offset, junk_from_, pos_));
+            junk_from_ = pos_;
+        }
+        return junk_from_;
+    }
+
+private:
     // Bytes between frames: a frame with a bad CRC at their end (its length right for its
     // function code), and before it bytes that form none.
-    const auto flush_junk = [&](std::size_t until) {
-        if (until <= junk_from) return;
-        clean = false;
-        const auto junk = bytes.subspan(junk_from, until - junk_from);
+    void flush_junk(std::span<const std::uint8_t> junk) {
+        if (junk.empty()) return;
+        clean_ = false;
         std::size_t k = 0;
         while (k < junk.size() && !framed_exactly(junk.subspan(k))) ++k;
-        if (k > 0) print_skipped(o, junk_from, junk.first(k), "not a Modbus RTU frame");
+        if (k > 0) print_skipped(o_, junk_from_, junk.first(k), "not a Modbus RTU frame");
         if (k == junk.size()) return;
         const auto f = junk.subspan(k);
         const auto got = static_cast<std::uint16_t>(f[f.size() - 2] | f[f.size() - 1] << 8);
         const std::uint16_t want = crc16_modbus(f.first(f.size() - 2));
-        print(o,
-              {{"offset", junk_from + k},
+        print(o_,
+              {{"offset", junk_from_ + k},
                {"bytes", hex(f)},
                {"crc", "bad"},
                {"unit", f[0]},
                {"function", f[1] & 0x7F}},
               fmt::format("@{:<4} {:<26} unit {}: {}: CRC bad: 0x{:04X}, the bytes give 0x{:04X}",
-                          junk_from + k, hex(f), f[0], function_name(f[1] & 0x7F), got, want));
-    };
-    while (pos < bytes.size()) {
-        const auto rest = bytes.subspan(pos);
-        const std::size_t as_request = rtu_frame_at(rest, accept::requests);
-        const std::size_t as_response = rtu_frame_at(rest, accept::responses);
-        if (as_request == 0 && as_response == 0) {
-            ++pos;
-            continue;
-        }
-        flush_junk(pos);
-        const bool answers = as_response != 0 && !asked.pdu.empty() && asked.unit == rest[0] &&
-                             (rest[1] & 0x7F) == asked.pdu[0];
+                          junk_from_ + k, hex(f), f[0], function_name(f[1] & 0x7F), got, want));
+    }
+
+    // The frame at pos_ (`rest` from there on), framed as a request and as a response (0:
+    // not so); pos_ moves past it.
+    void print_frame(std::span<const std::uint8_t> rest, std::size_t as_request,
+                     std::size_t as_response) {
+        const bool answers = as_response != 0 && !asked_.pdu.empty() && asked_.unit == rest[0] &&
+                             (rest[1] & 0x7F) == asked_.pdu[0];
         const bool request = as_request != 0 && !answers;
         const std::size_t n = request ? as_request : as_response;
         const auto frame = rest.first(n);
         const auto pdu = frame.subspan(1, n - 3);
-        nlohmann::json j{{"offset", pos},
+        nlohmann::json j{{"offset", pos_},
                          {"bytes", hex(frame)},
                          {"direction", request ? "request" : "response"},
                          {"unit", frame[0]},
@@ -317,50 +340,66 @@ int decode_modbus_rtu(const decode_options& o, std::span<const std::uint8_t> byt
             if (!describe_request(pdu, j, fields))
                 fields = fmt::format("{}: deserves exception {:02X}", function_name(pdu[0]),
                                      mb::request_exception(pdu));
-            asked = {{pdu.begin(), pdu.end()}, frame[0], 0};
+            asked_ = {{pdu.begin(), pdu.end()}, frame[0], 0};
         } else {
-            ok = describe_response(pdu, answers ? &asked : nullptr, j, fields);
-            asked = {};
+            ok = describe_response(pdu, answers ? &asked_ : nullptr, j, fields);
+            asked_ = {};
         }
-        clean = clean && ok;
+        clean_ = clean_ && ok;
         j["text"] = fields;
         const std::string to = frame[0] == mb::broadcast_address ? "unit 0 (broadcast)"
                                                                  : fmt::format("unit {}", frame[0]);
-        print(o, j,
-              fmt::format("@{:<4} {:<26} {} {}: {}, CRC ok", pos, hex(frame),
+        print(o_, j,
+              fmt::format("@{:<4} {:<26} {} {}: {}, CRC ok", pos_, hex(frame),
                           request ? "request " : "response", to, fields));
-        pos += n;
-        junk_from = pos;
+        pos_ += n;
     }
-    flush_junk(pos);
-    return clean ? exit_ok : exit_device_error;
-}
 
-int decode_modbus_tcp(const decode_options& o, std::span<const std::uint8_t> bytes) {
-    bool clean = true;
-    pending asked;
-    mb::tcp_decoder d;
-    std::size_t pos = 0;
-    std::size_t last_end = 0;
-    while (pos < bytes.size()) {
-        const auto s = d.feed(bytes.subspan(pos));
-        pos += s.consumed;
-        if (s.what != mb::tcp_decoder::status::frame) continue;
-        const auto frame = d.adu();
-        const std::size_t start = pos - frame.size();
-        if (start > last_end) {
-            print_skipped(o, last_end, bytes.subspan(last_end, start - last_end),
-                          "not a Modbus TCP frame");
-            clean = false;
+    const decode_options& o_;
+    pending asked_;
+    std::size_t pos_ = 0;       // the next byte that may start a frame
+    std::size_t junk_from_ = 0; // bytes from here to pos_ form none
+};
+
+// TCP frames are split by their MBAP header.
+class tcp_capture final : public capture_decoder {
+public:
+    explicit tcp_capture(const decode_options& o) : o_(o) {}
+
+    std::size_t decode(std::span<const std::uint8_t> bytes, std::size_t offset, bool end) override {
+        const std::size_t stop = offset + bytes.size();
+        while (pos_ < stop) {
+            const auto s = d_.feed(capture_span(bytes, offset, pos_, stop));
+            pos_ += s.consumed;
+            if (s.what == mb::tcp_decoder::status::frame) take(bytes, offset);
         }
-        last_end = pos;
-        const auto pdu = d.pdu();
-        const bool answers = !asked.pdu.empty() && asked.transaction == d.transaction() &&
-                             asked.unit == d.unit() && (pdu[0] & 0x7F) == asked.pdu[0];
+        if (end && last_end_ < stop) {
+            print_skipped(o_, last_end_, capture_span(bytes, offset, last_end_, stop),
+                          "incomplete or not a Modbus TCP frame");
+            clean_ = false;
+            last_end_ = stop;
+        }
+        return last_end_;
+    }
+
+private:
+    // The frame d_ yielded, ending at pos_, and the bytes before it that form none.
+    void take(std::span<const std::uint8_t> bytes, std::size_t offset) {
+        const auto frame = d_.adu();
+        const std::size_t start = pos_ - frame.size();
+        if (start > last_end_) {
+            print_skipped(o_, last_end_, capture_span(bytes, offset, last_end_, start),
+                          "not a Modbus TCP frame");
+            clean_ = false;
+        }
+        last_end_ = pos_;
+        const auto pdu = d_.pdu();
+        const bool answers = !asked_.pdu.empty() && asked_.transaction == d_.transaction() &&
+                             asked_.unit == d_.unit() && (pdu[0] & 0x7F) == asked_.pdu[0];
         nlohmann::json j{{"offset", start},
                          {"bytes", hex(frame)},
-                         {"transaction", d.transaction()},
-                         {"unit", d.unit()},
+                         {"transaction", d_.transaction()},
+                         {"unit", d_.unit()},
                          {"function", pdu[0] & 0x7F}};
         std::string fields;
         bool request = false;
@@ -371,23 +410,34 @@ int decode_modbus_tcp(const decode_options& o, std::span<const std::uint8_t> byt
         }
         bool ok = true;
         if (request) {
-            asked = {{pdu.begin(), pdu.end()}, d.unit(), d.transaction()};
+            asked_ = {{pdu.begin(), pdu.end()}, d_.unit(), d_.transaction()};
         } else {
-            ok = describe_response(pdu, answers ? &asked : nullptr, j, fields);
-            asked = {};
+            ok = describe_response(pdu, answers ? &asked_ : nullptr, j, fields);
+            asked_ = {};
         }
-        clean = clean && ok;
+        clean_ = clean_ && ok;
         j["direction"] = request ? "request" : "response";
         j["text"] = fields;
-        print(o, j,
+        print(o_, j,
               fmt::format("@{:<4} {} transaction {} unit {}: {}", start,
-                          request ? "request " : "response", d.transaction(), d.unit(), fields));
+                          request ? "request " : "response", d_.transaction(), d_.unit(), fields));
     }
-    if (last_end < bytes.size()) {
-        print_skipped(o, last_end, bytes.subspan(last_end), "incomplete or not a Modbus TCP frame");
-        clean = false;
-    }
-    return clean ? exit_ok : exit_device_error;
+
+    const decode_options& o_;
+    pending asked_;
+    mb::tcp_decoder d_;
+    std::size_t pos_ = 0;      // bytes fed to d_
+    std::size_t last_end_ = 0; // the end of the last frame
+};
+
+} // namespace
+
+std::unique_ptr<capture_decoder> modbus_rtu_capture(const decode_options& o) {
+    return std::make_unique<rtu_capture>(o);
+}
+
+std::unique_ptr<capture_decoder> modbus_tcp_capture(const decode_options& o) {
+    return std::make_unique<tcp_capture>(o);
 }
 
 } // namespace ferrule::cli

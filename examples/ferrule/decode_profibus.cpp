@@ -281,48 +281,71 @@ std::size_t telegram_length(std::span<const std::uint8_t> b) {
     return std::size_t{b[1]} + 6;
 }
 
+// Telegrams as fdl_decoder frames them. Offsets are counted from the capture's start: a
+// telegram starts behind the bytes yielded before it and those the decoder dropped.
+class profibus_decoder final : public capture_decoder {
+public:
+    explicit profibus_decoder(const decode_options& o) : o_(o) {}
+
+    std::size_t decode(std::span<const std::uint8_t> bytes, std::size_t offset, bool end) override {
+        const std::size_t stop = offset + bytes.size();
+        pb::fdl_decoder::step s;
+        do {
+            s = d_.feed(capture_span(bytes, offset, fed_, stop));
+            fed_ += s.consumed;
+            take(s, bytes, offset);
+        } while (s.what != pb::fdl_decoder::status::need_more);
+        if (!end) return std::min(shown_, held_from());
+        do {
+            s = d_.finish();
+            take(s, bytes, offset);
+        } while (s.what != pb::fdl_decoder::status::need_more);
+        junk_until(stop, bytes, offset, "incomplete or not a PROFIBUS telegram");
+        return stop;
+    }
+
+private:
+    // Where the bytes the decoder holds begin: it may still find a telegram there.
+    std::size_t held_from() const { return yielded_ + d_.skipped(); }
+
+    void junk_until(std::size_t end, std::span<const std::uint8_t> bytes, std::size_t offset,
+                    const char* reason) {
+        if (end <= shown_) return;
+        print_skipped(o_, shown_, capture_span(bytes, offset, shown_, end), reason);
+        clean_ = false;
+        shown_ = end;
+    }
+
+    void take(const pb::fdl_decoder::step& s, std::span<const std::uint8_t> bytes,
+              std::size_t offset) {
+        if (s.what == pb::fdl_decoder::status::frame) {
+            const std::size_t start = held_from();
+            junk_until(start, bytes, offset, "not a PROFIBUS telegram");
+            print_telegram(o_, start, d_.bytes(), d_.telegram());
+            yielded_ += d_.bytes().size();
+            shown_ = std::max(shown_, start + d_.bytes().size());
+        } else if (s.what == pb::fdl_decoder::status::error && s.ec == errc::bad_checksum) {
+            const std::size_t start = held_from() - 1;
+            junk_until(start, bytes, offset, "not a PROFIBUS telegram");
+            const std::size_t end =
+                start + telegram_length(capture_span(bytes, offset, start, fed_));
+            if (end > shown_) print_bad_fcs(o_, start, capture_span(bytes, offset, start, end));
+            clean_ = false;
+            shown_ = std::max(shown_, end);
+        }
+    }
+
+    const decode_options& o_;
+    pb::fdl_decoder d_;
+    std::size_t fed_ = 0;
+    std::size_t yielded_ = 0;
+    std::size_t shown_ = 0; // bytes before this offset are printed
+};
+
 } // namespace
 
-int decode_profibus(const decode_options& o, std::span<const std::uint8_t> bytes) {
-    bool clean = true;
-    pb::fdl_decoder d;
-    std::size_t fed = 0;
-    std::size_t yielded = 0;
-    std::size_t shown = 0; // bytes before this offset are printed
-    const auto junk_until = [&](std::size_t end, const char* reason) {
-        if (end <= shown) return;
-        print_skipped(o, shown, bytes.subspan(shown, end - shown), reason);
-        clean = false;
-        shown = end;
-    };
-    const auto take = [&](const pb::fdl_decoder::step& s) {
-        if (s.what == pb::fdl_decoder::status::frame) {
-            const std::size_t start = yielded + d.skipped();
-            junk_until(start, "not a PROFIBUS telegram");
-            print_telegram(o, start, d.bytes(), d.telegram());
-            yielded += d.bytes().size();
-            shown = std::max(shown, start + d.bytes().size());
-        } else if (s.what == pb::fdl_decoder::status::error && s.ec == errc::bad_checksum) {
-            const std::size_t start = yielded + d.skipped() - 1;
-            junk_until(start, "not a PROFIBUS telegram");
-            const std::size_t end = start + telegram_length(bytes.subspan(start));
-            if (end > shown) print_bad_fcs(o, start, bytes.subspan(start, end - start));
-            clean = false;
-            shown = std::max(shown, end);
-        }
-    };
-    pb::fdl_decoder::step s;
-    do {
-        s = d.feed(bytes.subspan(fed));
-        fed += s.consumed;
-        take(s);
-    } while (s.what != pb::fdl_decoder::status::need_more);
-    do {
-        s = d.finish();
-        take(s);
-    } while (s.what != pb::fdl_decoder::status::need_more);
-    junk_until(bytes.size(), "incomplete or not a PROFIBUS telegram");
-    return clean ? exit_ok : exit_device_error;
+std::unique_ptr<capture_decoder> profibus_capture(const decode_options& o) {
+    return std::make_unique<profibus_decoder>(o);
 }
 
 } // namespace ferrule::cli

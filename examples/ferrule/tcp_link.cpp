@@ -4,16 +4,34 @@
 #include <asio/steady_timer.hpp>
 #include <fmt/core.h>
 
+#include <charconv>
 #include <cstdio>
+#include <system_error>
 
 #include "common.hpp"
 
 namespace ferrule::cli {
 
+namespace {
+
+// A port is a decimal number 1-65535: the resolver would take a service name, and wrap a
+// larger number into that range (99999 to 34463).
+const std::string& checked_port(const std::string& host_port, const std::string& port) {
+    unsigned value = 0;
+    const char* last = port.data() + port.size();
+    const auto [end, ec] = std::from_chars(port.data(), last, value);
+    if (port.empty() || ec != std::errc{} || end != last || value < 1 || value > 65535)
+        throw CLI::ValidationError("--host " + host_port,
+                                   fmt::format("port '{}' is not a number 1-65535", port));
+    return port;
+}
+
+} // namespace
+
 std::pair<std::string, std::string> split_host_port(const std::string& host_port,
                                                     const std::string& default_port) {
     if (const auto colon = host_port.rfind(':'); colon != std::string::npos)
-        return {host_port.substr(0, colon), host_port.substr(colon + 1)};
+        return {host_port.substr(0, colon), checked_port(host_port, host_port.substr(colon + 1))};
     return {host_port, default_port};
 }
 

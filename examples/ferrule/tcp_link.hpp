@@ -16,7 +16,9 @@
 
 namespace ferrule::cli {
 
-// "host" or "host:port": the name and the port, `default_port` when none is given.
+// "host" or "host:port": the name and the port, `default_port` when none is given. A port
+// that is not a number 1-65535 is a usage error: CLI::ValidationError, thrown before
+// anything is resolved or connected (exit code 2 from the command's callback).
 std::pair<std::string, std::string> split_host_port(const std::string& host_port,
                                                     const std::string& default_port);
 
@@ -29,7 +31,7 @@ struct tcp_peer {
 class tcp_link {
 public:
     // "host" or "host:port"; on failure prints why (refused, unknown host, no answer within
-    // `connect_timeout`) and returns nullptr.
+    // `connect_timeout`) and returns nullptr. A port that is not 1-65535: as split_host_port().
     static std::unique_ptr<tcp_link> open(const std::string& host_port,
                                           std::chrono::milliseconds connect_timeout, bool trace,
                                           const tcp_peer& peer = {});

@@ -81,8 +81,9 @@ int serve(const sim_options& o, std::deque<Station>& stations, const char* what,
     for (auto& st : stations) server.add(st);
     if (!o.link.empty()) {
         if (auto ec = server.link(o.link)) {
-            fmt::print(stderr, "ferrule-sim: --link {}: {}\n", o.link, ec.message());
-            return 3;
+            fmt::print(stderr, "ferrule-sim: --link: {}\n",
+                       ferrule::host::link_refusal(o.link, ec));
+            return 2;
         }
     }
     prepare(stations);
@@ -101,7 +102,9 @@ int serve(const sim_options& o, std::deque<Station>& stations, const char* what,
 void add_common(CLI::App& sub, sim_options& o, const char* address_help,
                 const std::string& address_names = "--address,-a") {
     sub.add_option(address_names, o.addresses, address_help);
-    sub.add_option("--link", o.link, "also create this symlink to the pty (removed on exit)");
+    sub.add_option("--link", o.link,
+                   "also create this symlink to the pty where nothing is (or a stale link); "
+                   "removed on exit");
     sub.add_option("--drop", o.drop, "percent of replies never sent")
         ->check(CLI::Range(0.0, 100.0));
     sub.add_option("--corrupt", o.corrupt, "percent of replies with a damaged byte")

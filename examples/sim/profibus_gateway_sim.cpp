@@ -162,12 +162,15 @@ int serve_gateway(const gateway_options& o, const std::atomic<bool>& stop) {
     dp_line dp;
     std::string dp_name;
     if (o.dp_port.empty()) {
-        std::error_code opened = pty.open();
-        if (!opened && !o.link.empty()) opened = pty.link(o.link);
-        if (auto ec = opened) {
-            fmt::print(stderr, "ferrule-sim: {}: {}\n",
-                       o.link.empty() ? "openpty" : "--link " + o.link, ec.message());
+        if (auto ec = pty.open()) {
+            fmt::print(stderr, "ferrule-sim: openpty: {}\n", ec.message());
             return 3;
+        }
+        if (!o.link.empty()) {
+            if (auto ec = pty.link(o.link)) {
+                fmt::print(stderr, "ferrule-sim: --link: {}\n", host::link_refusal(o.link, ec));
+                return 2;
+            }
         }
         dp = {pty.fd(), &pty};
         dp_name = pty.path() + (o.link.empty() ? "" : " (link " + o.link + ")");
@@ -216,7 +219,9 @@ void add_profibus_gateway(CLI::App& app, const std::atomic<bool>& stop, int& rc)
         "profibus-gateway",
         "a PROFIBUS-DP slave on a pty that passes Modbus requests to a drive line (transparent "
         "mode): simulated VFDs, or --drive-port");
-    sub->add_option("--link", o->link, "also create this symlink to the DP pty (removed on exit)");
+    sub->add_option("--link", o->link,
+                    "also create this symlink to the DP pty where nothing is (or a stale link); "
+                    "removed on exit");
     sub->add_option("--address,-a", o->address, "DP station address (0-126)")
         ->check(CLI::Range(0, 126))
         ->capture_default_str();

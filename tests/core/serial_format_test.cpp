@@ -43,7 +43,7 @@ TEST_CASE("ferrule::errc codes carry readable messages", "[core][error]") {
     CHECK(ec.message() == "no reply before the response timeout");
     CHECK(ec == ferrule::errc::timeout);
     CHECK(ec != ferrule::errc::bad_checksum);
-    for (int e = 1; e <= static_cast<int>(ferrule::errc::transport); ++e)
+    for (int e = 1; e <= static_cast<int>(ferrule::errc::out_of_range); ++e)
         CHECK(ferrule::make_error_code(static_cast<ferrule::errc>(e)).message() !=
               "unknown ferrule error");
 }

@@ -604,6 +604,8 @@ TEST_CASE("memobus access helpers against a controller", "[memobus][master][acce
     std::array<std::uint16_t, 1> one{};
     std::array<bool, 1> flag{};
     CHECK(read(line, m, "XW00100", one) == errc::invalid_argument);
+    CHECK(read(line, m, "MW65535", one) == errc::out_of_range); // a name beyond MW
+    CHECK(write(line, m, "MB65535F", std::span<const bool>(flag)) == errc::out_of_range);
     CHECK(read(line, m, "MB001000", one) == errc::invalid_argument);      // a bit name for words
     CHECK(read(line, m, "MW00100", flag) == errc::invalid_argument);      // a word name for bits
     CHECK(write_words(line, m, iw(0), values) == errc::invalid_argument); // IW is read-only

@@ -55,18 +55,44 @@ TEST_CASE("memobus register names parse", "[memobus][names]") {
 
 TEST_CASE("memobus register names refused", "[memobus][names]") {
     for (const std::string_view bad :
-         {"",       "M",         "MW",       "MB",       "MB0",      "IB",
-          "IB1",    "MW000100",  "MW65535",  "MW99999",  "IW65536",  "IW1A",
-          "IWC000", "MB0001000", "MB65535F", "IB655360", "MB00100G", "MB0010x0",
-          "MW-1",   "MW+1",      "MW 100",   " MW100",   "MW100 ",   "MX100",
-          "ML100",  "MF100",     "OW100",    "SW100",    "GW100",    "XW00100",
-          "WM100",  "M W100",    "MW1.0",    "MW0x10",   "MB.0",     "MB00100AA"}) {
+         {"",         "M",      "MW",        "MB",        "MB0",      "IB",       "IB1",
+          "MW000100", "IW1A",   "IWC000",    "MB0001000", "MB00100G", "MB0010x0", "MW-1",
+          "MW+1",     "MW 100", " MW100",    "MW100 ",    "MX100",    "ML100",    "MF100",
+          "OW100",    "SW100",  "GW100",     "XW00100",   "WM100",    "M W100",   "MW1.0",
+          "MW0x10",   "MB.0",   "MB00100AA", "MW999999"}) {
         INFO(bad);
         CHECK(parse_register(bad).error() == errc::invalid_argument);
         CHECK_FALSE(try_parse_register(bad));
     }
     // A name with a NUL inside
     CHECK_FALSE(try_parse_register(std::string_view("MW1\0", 4)));
+}
+
+TEST_CASE("memobus register names beyond their area are out of range", "[memobus][names]") {
+    // Well-formed names whose word number the area does not have: not "no name" (§3.4).
+    for (const std::string_view far : {"MW65535", "MW99999", "mw65535", "IW65536", "IW99999",
+                                       "MB65535F", "MB999990", "IB655360", "ib99999F"}) {
+        INFO(far);
+        CHECK(parse_register(far).error() == errc::out_of_range);
+        CHECK_FALSE(try_parse_register(far));
+    }
+    // What the name may reach, for a message: MW65535 is beyond MW00000…MW65534.
+    CHECK(area_of("MW65535") == register_kind::mw);
+    CHECK(area_of("ib99999F") == register_kind::ib);
+    CHECK(area_of("Iw1") == register_kind::iw);
+    CHECK(area_of("MB") == register_kind::mb);
+    CHECK_FALSE(area_of("XW1"));
+    CHECK_FALSE(area_of("MX1"));
+    CHECK_FALSE(area_of("M"));
+    CHECK(last_word(register_kind::mw) == 65534);
+    CHECK(last_word(register_kind::mb) == 65534);
+    CHECK(last_word(register_kind::iw) == 65535);
+    CHECK(last_word(register_kind::ib) == 65535);
+    // The last word of each area is still a name.
+    CHECK(parse_register("MW65534"));
+    CHECK(parse_register("IW65535"));
+    CHECK(parse_register("MB65534F"));
+    CHECK(parse_register("IB65535F"));
 }
 
 TEST_CASE("memobus register names format back", "[memobus][names]") {

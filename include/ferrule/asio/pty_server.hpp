@@ -57,7 +57,8 @@ public:
     pty_server& operator=(const pty_server&) = delete;
     // Creates the pty; path() is then the device to open.
     std::error_code open() { return pty_.open(); }
-    // A stable name for the device: a symlink to path(), removed with the server.
+    // A stable name for the device: a symlink to path() where nothing (or a stale link) is,
+    // removed with the server while it is still the server's (pseudo_terminal::link()).
     std::error_code link(const std::string& link_path) { return pty_.link(link_path); }
 
     const std::string& path() const noexcept { return pty_.path(); }

@@ -21,6 +21,7 @@ enum class errc {
     busy,                 // a transaction is already running
     frame_gap,            // a gap inside a telegram longer than the protocol allows
     transport,            // the byte stream failed (port closed, I/O error)
+    out_of_range,         // well-formed, but beyond the range the protocol gives it
 };
 
 class errc_category_t final : public std::error_category {
@@ -42,6 +43,7 @@ public:
         case errc::busy: return "a transaction is already in progress";
         case errc::frame_gap: return "gap inside a telegram exceeds the protocol's limit";
         case errc::transport: return "transport error";
+        case errc::out_of_range: return "out of range";
         }
         return "unknown ferrule error";
     }

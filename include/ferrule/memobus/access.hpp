@@ -170,30 +170,32 @@ std::error_code loopback(S& stream, master& m, std::uint16_t data = 0xAAAA) {
     return detail::transact(stream, m, r);
 }
 
-// By name: registers from "MW00100" / "IW0010", bits from "MB00100A" / "IB00100".
+// By name: registers from "MW00100" / "IW0010", bits from "MB00100A" / "IB00100". A name
+// beyond its area (MW65535) is errc::out_of_range, anything else that is no name
+// errc::invalid_argument.
 template <session_stream S>
 std::error_code read(S& stream, master& m, std::string_view name, std::span<std::uint16_t> out) {
-    const auto first = try_parse_register(name);
-    if (!first) return errc::invalid_argument;
+    const auto first = parse_register(name);
+    if (!first) return first.error();
     return read_words(stream, m, *first, out);
 }
 template <session_stream S>
 std::error_code read(S& stream, master& m, std::string_view name, std::span<bool> out) {
-    const auto first = try_parse_register(name);
-    if (!first) return errc::invalid_argument;
+    const auto first = parse_register(name);
+    if (!first) return first.error();
     return read_bits(stream, m, *first, out);
 }
 template <session_stream S>
 std::error_code write(S& stream, master& m, std::string_view name,
                       std::span<const std::uint16_t> values) {
-    const auto first = try_parse_register(name);
-    if (!first) return errc::invalid_argument;
+    const auto first = parse_register(name);
+    if (!first) return first.error();
     return write_words(stream, m, *first, values);
 }
 template <session_stream S>
 std::error_code write(S& stream, master& m, std::string_view name, std::span<const bool> values) {
-    const auto first = try_parse_register(name);
-    if (!first) return errc::invalid_argument;
+    const auto first = parse_register(name);
+    if (!first) return first.error();
     return write_bits(stream, m, *first, values);
 }
 

@@ -13,7 +13,9 @@
 // in hex). A hex letter in the word number is refused, so a hex spelling such as IWC000 fails
 // rather than naming another register.
 //
-// Prefixes are case-insensitive; 1…5 word digits. Anything else is errc::invalid_argument.
+// Prefixes are case-insensitive; 1…5 word digits. A name so written whose word number is
+// beyond its area (MW65535, IW99999) is errc::out_of_range; anything else is
+// errc::invalid_argument.
 #pragma once
 
 #include <cstddef>
@@ -49,6 +51,11 @@ constexpr std::uint32_t bit_address(const register_ref& r) noexcept {
 // The longest name: MB + 5 digits + 1 hex digit.
 inline constexpr std::size_t max_register_name = 8;
 
+// The last word number of an area: MW (and its bits) end at 65534, IW at 65535 (§3.4).
+constexpr std::uint16_t last_word(register_kind k) noexcept {
+    return k == register_kind::mw || k == register_kind::mb ? 65534 : 65535;
+}
+
 namespace detail {
 constexpr char upper(char c) noexcept {
     return c >= 'a' && c <= 'z' ? static_cast<char>(c - 'a' + 'A') : c;
@@ -61,43 +68,64 @@ constexpr int hex_digit(char c) noexcept {
 }
 } // namespace detail
 
-// The register a name stands for, or nullopt; usable in constant expressions.
-constexpr std::optional<register_ref> try_parse_register(std::string_view name) noexcept {
-    if (name.size() < 3) return std::nullopt;
-    register_ref r;
+// The area a name's first two letters stand for (MW, IW, MB, IB in any case), or nullopt: with
+// last_word(), what a name beyond its area (errc::out_of_range) may reach.
+constexpr std::optional<register_kind> area_of(std::string_view name) noexcept {
+    if (name.size() < 2) return std::nullopt;
     const char area = detail::upper(name[0]);
     const char size = detail::upper(name[1]);
     if (area != 'M' && area != 'I') return std::nullopt;
-    if (size == 'W')
-        r.kind = area == 'M' ? register_kind::mw : register_kind::iw;
-    else if (size == 'B')
-        r.kind = area == 'M' ? register_kind::mb : register_kind::ib;
-    else
-        return std::nullopt;
+    if (size == 'W') return area == 'M' ? register_kind::mw : register_kind::iw;
+    if (size == 'B') return area == 'M' ? register_kind::mb : register_kind::ib;
+    return std::nullopt;
+}
+
+namespace detail {
+// A name's register, or why it is none.
+struct parsed_name {
+    register_ref ref{};
+    errc fault{}; // errc{}: a register
+};
+
+constexpr parsed_name parse_name(std::string_view name) noexcept {
+    constexpr parsed_name none{{}, errc::invalid_argument};
+    const auto kind = area_of(name);
+    if (name.size() < 3 || !kind) return none;
+    register_ref r;
+    r.kind = *kind;
     std::string_view digits = name.substr(2);
     if (is_bit(r.kind)) {
-        const int b = detail::hex_digit(digits.back());
-        if (b < 0) return std::nullopt;
+        const int b = hex_digit(digits.back());
+        if (b < 0) return none;
         r.bit = static_cast<std::uint8_t>(b);
         digits.remove_suffix(1);
     }
-    if (digits.empty() || digits.size() > 5) return std::nullopt;
+    if (digits.empty() || digits.size() > 5) return none;
     std::uint32_t word = 0;
     for (const char c : digits) {
-        if (c < '0' || c > '9') return std::nullopt;
+        if (c < '0' || c > '9') return none;
         word = word * 10 + static_cast<std::uint32_t>(c - '0');
     }
-    // MW (and its bits) end at 65534, IW at 65535 (§3.4).
-    const bool hold = r.kind == register_kind::mw || r.kind == register_kind::mb;
-    if (word > (hold ? 65534u : 65535u)) return std::nullopt;
+    if (word > last_word(r.kind)) return {r, errc::out_of_range};
     r.word = static_cast<std::uint16_t>(word);
-    return r;
+    return {r, {}};
+}
+} // namespace detail
+
+// The register a name stands for, or nullopt; usable in constant expressions.
+constexpr std::optional<register_ref> try_parse_register(std::string_view name) noexcept {
+    const auto p = detail::parse_name(name);
+    if (p.fault != errc{}) return std::nullopt;
+    return p.ref;
 }
 
-// The same as a result: errc::invalid_argument for anything but a register name.
+// The same as a result: errc::out_of_range for a name whose word number is beyond its area
+// (MW00000…MW65534, IW0000…IW65535), errc::invalid_argument for anything else that is no
+// register name.
 inline result<register_ref> parse_register(std::string_view name) noexcept {
-    if (const auto r = try_parse_register(name)) return *r;
-    return errc::invalid_argument;
+    const auto p = detail::parse_name(name);
+    if (p.fault != errc{}) return p.fault;
+    return p.ref;
 }
 
 // The name in MPE720's spelling (MW00100, IW0010, MB00100A, IB00100) into `out`; its length,
@@ -105,7 +133,7 @@ inline result<register_ref> parse_register(std::string_view name) noexcept {
 // invalid_argument for a bit above 15 or a hold register word of 65535.
 inline result<std::size_t> format_register(const register_ref& r, std::span<char> out) noexcept {
     const bool hold = r.kind == register_kind::mw || r.kind == register_kind::mb;
-    if (r.bit > 15 || (hold && r.word > 65534) || (!is_bit(r.kind) && r.bit != 0))
+    if (r.bit > 15 || r.word > last_word(r.kind) || (!is_bit(r.kind) && r.bit != 0))
         return errc::invalid_argument;
     const std::size_t digits = hold || r.word >= 10000 ? 5 : 4;
     const std::size_t n = 2 + digits + (is_bit(r.kind) ? 1 : 0);
