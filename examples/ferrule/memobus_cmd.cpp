@@ -175,12 +175,18 @@ struct context {
     }
 };
 
+// The usage error of a name that is no register: beyond its area (MW65535), or no name at all.
+int name_refused(const std::string& name, std::string_view examples) {
+    const auto area = mb::area_of(name);
+    if (area && mb::parse_register(name).error() == errc::out_of_range)
+        return usage(
+            fmt::format("{}: register number out of range 0..{}", name, mb::last_word(*area)));
+    return usage(fmt::format("'{}' is no register name ({})", name, examples));
+}
+
 int cmd_read(const memobus_options& o) {
     const auto first = mb::try_parse_register(o.name);
-    if (!first)
-        return usage(fmt::format("'{}' is no register name (MW00100, IW0010, MB00100A, "
-                                 "IB00100)",
-                                 o.name));
+    if (!first) return name_refused(o.name, "MW00100, IW0010, MB00100A, IB00100");
     mb::request r;
     r.count = static_cast<std::uint16_t>(o.count);
     const bool bits = mb::is_bit(first->kind);
@@ -247,7 +253,7 @@ int cmd_read(const memobus_options& o) {
 
 int cmd_write(const memobus_options& o) {
     const auto first = mb::try_parse_register(o.name);
-    if (!first) return usage(fmt::format("'{}' is no register name (MW00100, MB00100A)", o.name));
+    if (!first) return name_refused(o.name, "MW00100, MB00100A");
     if (first->kind != mb::register_kind::mw && first->kind != mb::register_kind::mb)
         return usage("only MW registers and MB bits can be written");
     const std::size_t n = o.values.size();
@@ -330,7 +336,8 @@ void add_memobus(CLI::App& app, int& exit_status) {
                                             int (*fn)(const memobus_options&)) {
         auto* cmd = sub->add_subcommand(name, help);
         cmd->add_option("--host", o->host,
-                        std::string("controller IP[:PORT] (port ") + default_port + " by default)");
+                        std::string("controller IP[:PORT] (port ") + default_port + " by default)")
+            ->check(host_port_check());
         cmd->add_flag("--udp", o->udp, "UDP instead of TCP");
         cmd->add_option("--local-port", o->local_port,
                         "bind this local port (the controller's connection table may fix it)")

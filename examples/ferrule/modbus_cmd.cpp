@@ -408,7 +408,8 @@ void add_modbus(CLI::App& app, int& exit_status) {
         sub->get_option("--unit")->description(
             "unit id (RTU: 1-247, 0 = broadcast a write; TCP: 0-255)");
         sub->add_option("--host", o->host,
-                        "Modbus TCP server HOST[:PORT] (port 502 by default) instead of --port");
+                        "Modbus TCP server HOST[:PORT] (port 502 by default) instead of --port")
+            ->check(host_port_check());
         sub->add_option("--gap", o->gap_ms,
                         "RTU: ms of silence before a request (default t3.5 of the format; 0 on "
                         "virtual links)")

@@ -15,14 +15,19 @@ namespace ferrule::cli {
 namespace {
 
 // A port is a decimal number 1-65535: the resolver would take a service name, and wrap a
-// larger number into that range (99999 to 34463).
-const std::string& checked_port(const std::string& host_port, const std::string& port) {
+// larger number into that range (99999 to 34463). Empty when it is one, else why not.
+std::string port_problem(const std::string& port) {
     unsigned value = 0;
     const char* last = port.data() + port.size();
     const auto [end, ec] = std::from_chars(port.data(), last, value);
     if (port.empty() || ec != std::errc{} || end != last || value < 1 || value > 65535)
-        throw CLI::ValidationError("--host " + host_port,
-                                   fmt::format("port '{}' is not a number 1-65535", port));
+        return fmt::format("port '{}' is not a number 1-65535", port);
+    return {};
+}
+
+const std::string& checked_port(const std::string& host_port, const std::string& port) {
+    if (auto why = port_problem(port); !why.empty())
+        throw CLI::ValidationError("--host " + host_port, why);
     return port;
 }
 
@@ -33,6 +38,16 @@ std::pair<std::string, std::string> split_host_port(const std::string& host_port
     if (const auto colon = host_port.rfind(':'); colon != std::string::npos)
         return {host_port.substr(0, colon), checked_port(host_port, host_port.substr(colon + 1))};
     return {host_port, default_port};
+}
+
+CLI::Validator host_port_check() {
+    return CLI::Validator(
+        [](std::string& host_port) {
+            const auto colon = host_port.rfind(':');
+            return colon == std::string::npos ? std::string()
+                                              : port_problem(host_port.substr(colon + 1));
+        },
+        "HOST[:PORT]");
 }
 
 std::unique_ptr<tcp_link> tcp_link::open(const std::string& host_port,

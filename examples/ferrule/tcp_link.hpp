@@ -2,6 +2,7 @@
 // asked, connect with a timeout, a blocking stream.
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <asio/io_context.hpp>
 #include <asio/ip/tcp.hpp>
 
@@ -21,6 +22,10 @@ namespace ferrule::cli {
 // anything is resolved or connected (exit code 2 from the command's callback).
 std::pair<std::string, std::string> split_host_port(const std::string& host_port,
                                                     const std::string& default_port);
+
+// The same check of the port while the command line is parsed, so that --dry-run, which
+// connects nowhere, refuses a bad port too. Give it to CLI::Option::check().
+CLI::Validator host_port_check();
 
 struct tcp_peer {
     std::string default_port = "502";          // Modbus TCP's registered port (TCP §4.1)

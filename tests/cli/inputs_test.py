@@ -154,6 +154,12 @@ for extra in [[], ["--udp"]]:
     check(f"memobus --host 127.0.0.1:70000{''.join(' ' + e for e in extra)} is a usage error",
           rc == 2 and "'70000'" in err and "1-65535" in err, err)
 
+# --dry-run connects nowhere, yet the port is checked while the command line is parsed.
+for proto, args in [("modbus", ["read", "-r", "0"]), ("memobus", ["read", "MW00100"])]:
+    rc, out, err = run(proto, *args, "--host", "127.0.0.1:99999", "--dry-run")
+    check(f"{proto} --dry-run --host 127.0.0.1:99999 is a usage error",
+          rc == 2 and "'99999'" in err and "1-65535" in err and not out, out + err)
+
 # --- ferrule-sim --link ----------------------------------------------------------------------
 
 

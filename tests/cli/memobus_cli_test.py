@@ -65,6 +65,11 @@ for args, want in [(["read", "MW00000", "-c", "10"],
 
 rc, _, err = run("memobus", "read", "XW00100", "--dry-run")
 check("a bad register name is a usage error", rc == 2 and "XW00100" in err, err)
+for verb, name, last in [("read", "MW65535", 65534), ("read", "IW99999", 65535),
+                         ("write", "MB65535A", 65534)]:
+    rc, _, err = run("memobus", verb, name, *(["1"] if verb == "write" else []), "--dry-run")
+    check(f"{verb} {name}: a name beyond its area", rc == 2
+          and f"{name}: register number out of range 0..{last}" in err, err)
 rc, _, err = run("memobus", "write", "IW0010", "1", "--dry-run")
 check("IW cannot be written", rc == 2 and "MW" in err, err)
 rc, _, err = run("memobus", "read", "MW00000", "-c", "126", "--classic", "--dry-run")
