@@ -359,7 +359,7 @@ void add_decode(CLI::App& app, int& exit_status) {
         ->excludes(hex_bytes);
     sub->add_option("--max-junk", o->max_junk,
                     "--file: stop after this many bytes in a row that hold no telegram")
-        ->check(CLI::Range(min_max_junk, std::size_t{16} << 20))
+        ->transform(integer_in(min_max_junk, std::int64_t{16} << 20))
         ->capture_default_str();
     sub->add_flag("--json", o->json, "one JSON object per frame");
     sub->callback([o, &exit_status] {

@@ -208,6 +208,9 @@ TABLE += [
     Row("memobus read", "--count", span(1, 535), ["MW65000", "--count={}"]),
     Row("memobus write", "values", span(-32768, 65535), ["MW00100", "{}"]),
     Row("memobus write", "values", span(0, 1), ["MB001000", "{}"]),
+
+    Row("decode", "--max-junk", span(8192, 16 << 20),
+        ["modbus-rtu", "--max-junk={}", "01", "06", "C8", "00", "00", "25", "76", "71"]),
 ]
 
 
@@ -217,7 +220,9 @@ def run(args):
 
 
 def invocation(row, value):
-    return row.command.split() + [a.replace("{}", value) for a in row.args] + ["--dry-run"]
+    """The command with the value, and --dry-run where the command opens a port."""
+    dry = [] if row.command == "decode" else ["--dry-run"]
+    return row.command.split() + [a.replace("{}", value) for a in row.args] + dry
 
 
 def typed(row, value):
