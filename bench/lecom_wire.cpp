@@ -16,10 +16,10 @@
 #include <cstdint>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/lecom/access.hpp"
 #include "ferrule/lecom/poller.hpp"
-#include "ferrule/lecom/sim_bus.hpp"
+#include "ferrule/lecom/sim/bus.hpp"
 
 namespace {
 

@@ -29,7 +29,7 @@
 #include <thread>
 #include <vector>
 
-#include "ferrule/asio/memobus_server.hpp"
+#include "ferrule/host/memobus_server.hpp"
 #include "ferrule/core/bytes.hpp"
 #include "ferrule/memobus/message.hpp"
 #include "ferrule/memobus/register_image.hpp"

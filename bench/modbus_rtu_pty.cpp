@@ -39,7 +39,7 @@
 #include <string>
 #include <thread>
 
-#include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/modbus/access.hpp"
 #include "ferrule/modbus/client.hpp"
 

@@ -35,7 +35,7 @@
 #include <thread>
 #include <vector>
 
-#include "ferrule/asio/modbus_tcp_server.hpp"
+#include "ferrule/host/modbus_tcp_server.hpp"
 #include "ferrule/modbus/memory_model.hpp"
 #include "server_thread.hpp"
 #include "tcp_load.hpp"

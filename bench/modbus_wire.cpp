@@ -17,10 +17,10 @@
 #include <chrono>
 #include <cstdint>
 
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/modbus/access.hpp"
 #include "ferrule/modbus/client.hpp"
-#include "ferrule/modbus/sim_bus.hpp"
+#include "ferrule/modbus/sim/bus.hpp"
 
 namespace {
 

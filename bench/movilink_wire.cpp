@@ -18,9 +18,9 @@
 #include <span>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/movilink/access.hpp"
-#include "ferrule/movilink/sim_bus.hpp"
+#include "ferrule/movilink/sim/bus.hpp"
 
 namespace {
 

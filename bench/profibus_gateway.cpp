@@ -32,9 +32,9 @@
 #include <thread>
 #include <vector>
 
-#include "ferrule/asio/serial_stream.hpp"
-#include "ferrule/asio/serve.hpp"
-#include "ferrule/gateway/sim.hpp"
+#include "ferrule/host/serial_stream.hpp"
+#include "ferrule/host/serve.hpp"
+#include "ferrule/gateway/sim/rig.hpp"
 #include "ferrule/profibus/access.hpp"
 #include "ferrule/profibus/slave.hpp"
 

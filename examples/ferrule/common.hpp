@@ -19,8 +19,8 @@
 #include <vector>
 
 #include "../common/hex.hpp"
-#include "ferrule/asio/serial_port.hpp"
-#include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/host/serial_port.hpp"
+#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/core/serial_format.hpp"
 
 namespace ferrule::cli {
@@ -87,7 +87,7 @@ inline constexpr std::int64_t max_retries = 100;
 int refuse(std::string_view option, std::string_view value, std::string_view range,
            std::string_view note = {});
 
-// The baud rates host::open_serial() can set (ferrule/asio/serial_port.hpp).
+// The baud rates host::open_serial() can set (ferrule/host/serial_port.hpp).
 inline constexpr std::int64_t host_baud_rates[] = {1200,  2400,   4800,   9600,   19200, 38400,
                                                    57600, 115200, 230400, 460800, 921600};
 

@@ -7,7 +7,7 @@
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "ferrule/asio/serve.hpp"
+#include "ferrule/host/serve.hpp"
 #include "ferrule/lecom/access.hpp"
 #include "ferrule/lecom/error.hpp"
 #include "ferrule/lecom/poller.hpp"

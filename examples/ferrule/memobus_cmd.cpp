@@ -14,7 +14,7 @@
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "ferrule/asio/udp_stream.hpp"
+#include "ferrule/host/udp_stream.hpp"
 #include "ferrule/core/driver.hpp"
 #include "ferrule/memobus/error.hpp"
 #include "ferrule/memobus/master.hpp"

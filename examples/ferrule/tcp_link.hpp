@@ -13,7 +13,7 @@
 #include <string>
 #include <utility>
 
-#include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/host/serial_stream.hpp"
 
 namespace ferrule::cli {
 

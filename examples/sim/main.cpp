@@ -17,12 +17,12 @@
 #include <thread>
 #include <vector>
 
-#include "ferrule/asio/modbus_tcp_server.hpp"
-#include "ferrule/asio/pty_server.hpp"
-#include "ferrule/dimetix/sim_sensor.hpp"
+#include "ferrule/host/modbus_tcp_server.hpp"
+#include "ferrule/host/pty_server.hpp"
+#include "ferrule/dimetix/sim/sensor.hpp"
 #include "ferrule/lecom/constants.hpp"
-#include "ferrule/lecom/sim_station.hpp"
-#include "ferrule/movilink/sim_station.hpp"
+#include "ferrule/lecom/sim/station.hpp"
+#include "ferrule/movilink/sim/station.hpp"
 #include "memobus_sim.hpp"
 #include "modbus_sim.hpp"
 #include "profibus_gateway_sim.hpp"

@@ -23,7 +23,7 @@
 #include <optional>
 #include <string>
 
-#include "ferrule/asio/memobus_server.hpp"
+#include "ferrule/host/memobus_server.hpp"
 #include "ferrule/memobus/register_image.hpp"
 
 namespace ferrule::sim_app {

@@ -8,10 +8,10 @@
 #include <span>
 #include <string_view>
 
-#include "ferrule/asio/serial_stream.hpp"
+#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/modbus/data_model.hpp"
-#include "ferrule/modbus/sim_station.hpp"
+#include "ferrule/modbus/sim/station.hpp"
 
 namespace ferrule::sim_app {
 

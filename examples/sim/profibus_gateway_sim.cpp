@@ -28,13 +28,13 @@
 #include <vector>
 
 #include "../common/hex.hpp"
-#include "ferrule/asio/pty_server.hpp"
-#include "ferrule/asio/serial_port.hpp"
-#include "ferrule/asio/serial_stream.hpp"
-#include "ferrule/asio/serve_gateway.hpp"
+#include "ferrule/host/pty_server.hpp"
+#include "ferrule/host/serial_port.hpp"
+#include "ferrule/host/serial_stream.hpp"
+#include "ferrule/host/serve_gateway.hpp"
 #include "ferrule/gateway/gateway.hpp"
 #include "ferrule/modbus/constants.hpp"
-#include "ferrule/modbus/sim_station.hpp"
+#include "ferrule/modbus/sim/station.hpp"
 #include "ferrule/profibus/services.hpp"
 
 namespace ferrule::sim_app {

@@ -9,9 +9,9 @@
 #include <memory>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/dimetix/access.hpp"
-#include "ferrule/dimetix/sim_bus.hpp"
+#include "ferrule/dimetix/sim/bus.hpp"
 
 // The counter of counting_new.hpp, whose operator new may be defined in one file only
 // (no_heap_test.cpp): an inline variable, so this identical declaration names the same one.

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/lecom/access.hpp"
 #include "ferrule/lecom/poller.hpp"
 

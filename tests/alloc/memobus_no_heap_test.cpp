@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/memobus/access.hpp"
 #include "ferrule/memobus/message.hpp"
 #include "ferrule/memobus/names.hpp"

@@ -12,12 +12,12 @@
 #include <span>
 #include <vector>
 
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/modbus/memory_model.hpp"
 #include "ferrule/modbus/rtu.hpp"
 #include "ferrule/modbus/server.hpp"
-#include "ferrule/modbus/sim_bus.hpp"
+#include "ferrule/modbus/sim/bus.hpp"
 #include "ferrule/modbus/tcp.hpp"
 
 // The counter of counting_new.hpp, whose operator new may be defined in one file only

@@ -8,7 +8,7 @@
 
 #include "counting_new.hpp"
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/movilink/access.hpp"
 #include "ferrule/movilink/cyclic.hpp"
 

@@ -10,9 +10,9 @@
 #include <memory>
 #include <vector>
 
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/core/session.hpp"
-#include "ferrule/gateway/sim.hpp"
+#include "ferrule/gateway/sim/rig.hpp"
 #include "ferrule/modbus/constants.hpp"
 #include "ferrule/profibus/access.hpp"
 #include "ferrule/profibus/slave.hpp"

@@ -3,7 +3,8 @@
 #   MODE=install  cmake --install FERRULE_BINARY_DIR into WORK_DIR/prefix, then configure the
 #                 consumer with CMAKE_PREFIX_PATH=WORK_DIR/prefix (find_package(ferrule CONFIG))
 #   MODE=subdir   configure the consumer with FERRULE_SOURCE_DIR (add_subdirectory(ferrule))
-# then build the consumer in WORK_DIR/build and run its binary, which must exit with 0.
+# then build the consumer in WORK_DIR/build and run its three programs (ferrule::ferrule,
+# ferrule::host, ferrule::sim), each of which must exit with 0.
 # The consumer is built with the same compiler, flags, build type and generator as the
 # ferrule build that registered the test.
 cmake_minimum_required(VERSION 3.25)
@@ -45,7 +46,8 @@ if(MODE STREQUAL "install")
     run("install" "${CMAKE_COMMAND}" --install "${FERRULE_BINARY_DIR}" --prefix "${prefix}"
         --config "${BUILD_TYPE}")
     file(GLOB_RECURSE installed RELATIVE "${prefix}" "${prefix}/*")
-    foreach(f IN ITEMS ferrule/core/checksum.hpp ferruleConfig.cmake ferruleConfigVersion.cmake
+    foreach(f IN ITEMS ferrule/core/checksum.hpp ferrule/host/serial_port.hpp
+                       ferrule/sim/mock_serial.hpp ferruleConfig.cmake ferruleConfigVersion.cmake
                        ferruleTargets.cmake)
         string(REPLACE "." "\\." f_regex "${f}")
         set(hits ${installed})
@@ -66,10 +68,14 @@ endif()
 run("configure consumer" "${CMAKE_COMMAND}" ${configure_args})
 run("build consumer" "${CMAKE_COMMAND}" --build "${WORK_DIR}/build" --config "${BUILD_TYPE}")
 
-find_program(consumer_exe NAMES ferrule_consumer
-    PATHS "${WORK_DIR}/build" "${WORK_DIR}/build/${BUILD_TYPE}" NO_DEFAULT_PATH NO_CACHE)
-if(NOT consumer_exe)
-    message(FATAL_ERROR "[${MODE}] the consumer binary was not built")
-endif()
-run("run consumer" "${consumer_exe}")
-message(STATUS "[${MODE}] OK: ferrule::crc16_modbus(\"123456789\") == 0x4B37")
+foreach(program IN ITEMS ferrule_consumer ferrule_consumer_host ferrule_consumer_sim)
+    find_program(exe NAMES ${program}
+        PATHS "${WORK_DIR}/build" "${WORK_DIR}/build/${BUILD_TYPE}" NO_DEFAULT_PATH NO_CACHE)
+    if(NOT exe)
+        message(FATAL_ERROR "[${MODE}] the consumer ${program} was not built")
+    endif()
+    run("run ${program}" "${exe}")
+    unset(exe)
+endforeach()
+message(STATUS "[${MODE}] OK: ferrule::ferrule (Modbus CRC check value), ferrule::host (a pty "
+               "opened as a serial port), ferrule::sim (a Modbus client starts a simulated VFD)")

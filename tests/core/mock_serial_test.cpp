@@ -2,7 +2,7 @@
 
 #include <array>
 
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace std::chrono_literals;
 using ferrule::mock_serial;

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/dimetix/access.hpp"
 #include "ferrule/dimetix/sensor.hpp"
 

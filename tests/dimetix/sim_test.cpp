@@ -7,10 +7,10 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/dimetix/access.hpp"
-#include "ferrule/dimetix/sim_bus.hpp"
-#include "ferrule/dimetix/sim_sensor.hpp"
+#include "ferrule/dimetix/sim/bus.hpp"
+#include "ferrule/dimetix/sim/sensor.hpp"
 
 using namespace std::chrono_literals;
 using namespace ferrule::dimetix;

@@ -6,7 +6,7 @@
 
 #include <vector>
 
-#include "ferrule/gateway/sim.hpp"
+#include "ferrule/gateway/sim/rig.hpp"
 #include "ferrule/modbus/constants.hpp"
 #include "ferrule/profibus/access.hpp"
 

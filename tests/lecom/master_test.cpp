@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/lecom/access.hpp"
 #include "ferrule/lecom/master.hpp"
 

@@ -6,7 +6,7 @@
 #include <functional>
 #include <vector>
 
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/lecom/poller.hpp"
 
 using namespace std::chrono_literals;

@@ -9,11 +9,11 @@
 #include <string_view>
 #include <vector>
 
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/lecom/constants.hpp"
 #include "ferrule/lecom/frame.hpp"
-#include "ferrule/lecom/sim_bus.hpp"
-#include "ferrule/lecom/sim_drive.hpp"
+#include "ferrule/lecom/sim/bus.hpp"
+#include "ferrule/lecom/sim/drive.hpp"
 #include "ferrule/lecom/value.hpp"
 
 using namespace ferrule;

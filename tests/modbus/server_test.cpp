@@ -19,7 +19,7 @@
 #include "ferrule/modbus/pdu.hpp"
 #include "ferrule/modbus/rtu.hpp"
 #include "ferrule/modbus/server.hpp"
-#include "ferrule/modbus/sim_vfd.hpp"
+#include "ferrule/modbus/sim/vfd.hpp"
 #include "ferrule/modbus/tcp.hpp"
 
 using namespace ferrule;

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "ferrule/core/bytes.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/modbus/access.hpp"
 #include "ferrule/modbus/client.hpp"
 #include "ferrule/modbus/constants.hpp"
@@ -18,8 +18,8 @@
 #include "ferrule/modbus/error.hpp"
 #include "ferrule/modbus/pdu.hpp"
 #include "ferrule/modbus/rtu.hpp"
-#include "ferrule/modbus/sim_bus.hpp"
-#include "ferrule/modbus/sim_vfd.hpp"
+#include "ferrule/modbus/sim/bus.hpp"
+#include "ferrule/modbus/sim/vfd.hpp"
 
 using namespace ferrule;
 using namespace ferrule::modbus;

@@ -10,13 +10,13 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/movilink/error.hpp"
 #include "ferrule/movilink/frame.hpp"
 #include "ferrule/movilink/master.hpp"
 #include "ferrule/movilink/process_data.hpp"
-#include "ferrule/movilink/sim_bus.hpp"
-#include "ferrule/movilink/sim_movitrac_b.hpp"
+#include "ferrule/movilink/sim/bus.hpp"
+#include "ferrule/movilink/sim/movitrac_b.hpp"
 
 using namespace ferrule;
 using namespace ferrule::movilink;

@@ -20,10 +20,10 @@
 #include <string>
 #include <string_view>
 
-#include "ferrule/asio/modbus_tcp_server.hpp"
-#include "ferrule/asio/serial_port.hpp"
-#include "ferrule/asio/serial_stream.hpp"
-#include "ferrule/asio/serve.hpp"
+#include "ferrule/host/modbus_tcp_server.hpp"
+#include "ferrule/host/serial_port.hpp"
+#include "ferrule/host/serial_stream.hpp"
+#include "ferrule/host/serve.hpp"
 #include "ferrule/modbus/access.hpp"
 #include "ferrule/modbus/memory_model.hpp"
 #include "ferrule/modbus/server.hpp"

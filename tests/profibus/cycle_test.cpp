@@ -6,9 +6,9 @@
 #include <array>
 #include <vector>
 
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/profibus/cycle.hpp"
-#include "ferrule/profibus/sim_bus.hpp"
+#include "ferrule/profibus/sim/bus.hpp"
 
 using namespace std::chrono_literals;
 using namespace ferrule;

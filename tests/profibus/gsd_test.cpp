@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "ferrule/gateway/sim.hpp"
+#include "ferrule/gateway/sim/rig.hpp"
 #include "ferrule/modbus/constants.hpp"
 #include "ferrule/profibus/access.hpp"
 #include "ferrule/profibus/services.hpp"

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/core/mock_serial.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/profibus/access.hpp"
 #include "ferrule/profibus/error.hpp"
 #include "ferrule/profibus/master.hpp"
