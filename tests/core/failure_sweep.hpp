@@ -6,7 +6,9 @@
 //
 // A Rig is default-constructible and has a mock_serial `line`; `transaction(rig)` runs one
 // transaction and returns its outcome; `failed(rig, outcome, k)` (k: the operation that
-// failed) and `succeeded(rig, outcome)` check it.
+// failed) and `succeeded(rig, outcome)` check it. A session that never finishes (movilink::cyclic,
+// lecom::poller) starts its next transaction in the driver step that ends one: that step's
+// operation, the last one a transaction makes, is the next one's; `carried` = 1 leaves it out.
 #pragma once
 
 #include <catch2/catch.hpp>
@@ -27,12 +29,13 @@ namespace ferrule::test {
 inline const std::error_code injected = std::make_error_code(std::errc::io_error);
 
 template <class Rig, class Transaction, class Failed, class Succeeded>
-void failure_sweep(Transaction transaction, Failed failed, Succeeded succeeded) {
+void failure_sweep(Transaction transaction, Failed failed, Succeeded succeeded,
+                   std::size_t carried = 0) {
     std::size_t n = 0;
     {
         Rig rig;
         succeeded(rig, transaction(rig));
-        n = rig.line.io_operations();
+        n = rig.line.io_operations() - carried;
     }
     REQUIRE(n > 0);
     for (std::size_t k = 1; k <= n; ++k) {
@@ -80,11 +83,28 @@ served serve_request(mock_serial& line, Station& station, std::span<const std::u
     return s;
 }
 
-// A station's transaction with operation k failing: one transport error, and either no
-// reply (its write failed) or the whole reply a clean transaction gets, never a part of it.
-inline void check_station_failure(const served& s, const std::vector<std::uint8_t>& reply) {
-    CHECK(s.errors == 1);
-    if (!s.sent.empty()) CHECK(s.sent == reply);
+// The sweep for a station rig (a mock_serial `line` without a peer), whose `transaction(rig)`
+// serves one request (serve_request). With operation k failing the station meets one
+// transport error and sends either the whole reply a clean transaction gets or, when the
+// failed operation is the reply's write, nothing; never a part of it, never late.
+template <class Rig, class Transaction, class Succeeded>
+void station_sweep(Transaction transaction, Succeeded succeeded) {
+    const std::vector<std::uint8_t> reply = [&] {
+        Rig rig;
+        return transaction(rig).sent;
+    }();
+    std::size_t unanswered = 0;
+    failure_sweep<Rig>(
+        transaction,
+        [&](Rig&, const served& s, std::size_t) {
+            CHECK(s.errors == 1);
+            if (s.sent.empty())
+                ++unanswered;
+            else
+                CHECK(s.sent == reply);
+        },
+        succeeded);
+    CHECK(unanswered == 1);
 }
 
 } // namespace ferrule::test
