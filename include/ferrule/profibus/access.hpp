@@ -86,8 +86,10 @@ std::error_code send_global_control(S& stream, master& m, const global_control& 
 
 // The master's start-up of slave `da` (§B.6): FDL_Status → Slave_Diag → Set_Prm → Chk_Cfg →
 // Slave_Diag until ready() (at most diag_polls times). The slave's FCB starts over
-// (reset_fcb). Returns the first error; after the polls device_error::prm_fault or cfg_fault
-// when the last diagnosis says so, else device_error::not_ready while it is not ready.
+// (reset_fcb). Returns the first error; device_error::master_lock as soon as a diagnosis names
+// another master in Diag.Master_Add (the slave acknowledged Set_Prm and Chk_Cfg but did not
+// take them); after the polls device_error::prm_fault or cfg_fault when the last diagnosis
+// says so, else device_error::not_ready while it is not ready.
 template <session_stream S>
 std::error_code bring_up(S& stream, master& m, std::uint8_t da, const prm_data& p,
                          std::span<const std::uint8_t> cfg, unsigned diag_polls = 10) {
@@ -99,6 +101,7 @@ std::error_code bring_up(S& stream, master& m, std::uint8_t da, const prm_data& 
     if (auto ec = chk_cfg(stream, m, da, cfg)) return ec;
     for (unsigned i = 0; i < diag_polls; ++i) {
         if (auto ec = read_slave_diag(stream, m, da, d)) return ec;
+        if (locked_to_other(d, m.config().address)) return device_error::master_lock;
         if (d.ready()) return {};
     }
     if (d.status1 & diag::prm_fault) return device_error::prm_fault;
