@@ -45,6 +45,7 @@
 #include <cstdint>
 #include <span>
 
+#include "ferrule/core/result.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
@@ -273,43 +274,38 @@ private:
     }
 
     void set_prm(const telegram& t, time_point end) noexcept {
-        if (locked_by_other(t.sa)) return reply_ack(end);
-        const auto p = parse_prm(t.data);
-        if (p && p->lock_request() == prm_lock::unlock) {
+        if (!locked_by_other(t.sa)) take_prm(parse_prm(t.data), t.sa);
+        reply_ack(end);
+    }
+
+    void take_prm(const result<prm_data>& p, std::uint8_t sa) noexcept {
+        const prm_lock lock = p ? p->lock_request() : prm_lock::lock;
+        if (lock == prm_lock::unlock) {
             to_wait_prm();
             master_ = diag::no_master;
-            return reply_ack(end);
+            return;
         }
-        if (!p || p->user.size() > user_prm_.size()) return prm_fault(end);
-        if (p->lock_request() == prm_lock::overwrite) {
-            take_station_parameters(*p);
-            return reply_ack(end);
+        if (!p || p->user.size() > user_prm_.size() ||
+            (lock == prm_lock::lock &&
+             (p->ident != cfg_.ident ||
+              (p->watchdog_on() && (p->wd_fact1 == 0 || p->wd_fact2 == 0))))) {
+            ++stats_.prm_faults;
+            prm_fault_ = true;
+            to_wait_prm();
+            return;
         }
-        if (p->ident != cfg_.ident || (p->watchdog_on() && (p->wd_fact1 == 0 || p->wd_fact2 == 0)))
-            return prm_fault(end);
+        // Without Lock_Req only these two may be overwritten.
+        if (p->min_tsdr != 0) min_tsdr_ = p->min_tsdr;
+        std::copy(p->user.begin(), p->user.end(), user_prm_.begin());
+        user_prm_size_ = p->user.size();
+        if (lock == prm_lock::overwrite) return;
         prm_fault_ = false;
-        master_ = t.sa;
+        master_ = sa;
         watchdog_on_ = p->watchdog_on();
         watchdog_ = p->watchdog();
         group_ = p->group;
-        take_station_parameters(*p);
         if (state_ == slave_state::data_exchange) zero_outputs();
         state_ = slave_state::wait_cfg;
-        reply_ack(end);
-    }
-
-    // What Set_Prm may overwrite without Lock_Req: min_TSDR and User_Prm_Data.
-    void take_station_parameters(const prm_data& p) noexcept {
-        if (p.min_tsdr != 0) min_tsdr_ = p.min_tsdr;
-        std::copy(p.user.begin(), p.user.end(), user_prm_.begin());
-        user_prm_size_ = p.user.size();
-    }
-
-    void prm_fault(time_point end) noexcept {
-        ++stats_.prm_faults;
-        prm_fault_ = true;
-        to_wait_prm();
-        reply_ack(end);
     }
 
     void chk_cfg(const telegram& t, time_point end) noexcept {
