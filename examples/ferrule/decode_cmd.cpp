@@ -34,6 +34,24 @@ namespace {
 namespace ml = ferrule::movilink;
 namespace dx = ferrule::dimetix;
 
+// Status word 1's high byte as bits 1 and 5 say (movilink.md §3.3): a fault's number
+// (not ready), a warning's number (ready), else the unit status.
+std::string status_high_byte(ml::status_word sw) {
+    if (sw.fault()) return fmt::format("FAULT {}", sw.fault_number());
+    if (sw.warning()) return fmt::format("WARNING {}", sw.warning_number());
+    return fmt::format("unit status {}", sw.unit_status());
+}
+
+nlohmann::json status_json(ml::status_word sw) {
+    return {{"value", sw.value},
+            {"state", ml::name(sw.state())},
+            {"ready", sw.ready()},
+            {"output_stage_enabled", sw.output_stage_enabled()},
+            {"fault_number", sw.fault_number()},
+            {"warning_number", sw.warning_number()},
+            {"unit_status", sw.unit_status()}};
+}
+
 void print_movilink_frame(const decode_options& o, std::size_t offset,
                           std::span<const std::uint8_t> f) {
     const ml::telegram t = *ml::parse(f);
@@ -83,9 +101,9 @@ void print_movilink_frame(const decode_options& o, std::size_t offset,
         } else if (i == 0) {
             const ml::status_word sw{t.pd[0]};
             text +=
-                fmt::format("  status word 1: ready {}, output stage {}, {} {}", sw.ready() ? 1 : 0,
-                            sw.output_stage_enabled() ? 1 : 0, sw.fault() ? "FAULT" : "unit status",
-                            sw.fault() ? sw.fault_number() : sw.unit_status());
+                fmt::format("  status word 1: ready {}, output stage {}, {}", sw.ready() ? 1 : 0,
+                            sw.output_stage_enabled() ? 1 : 0, status_high_byte(sw));
+            j["status_word"] = status_json(sw);
         } else if (i == 1) {
             text += fmt::format("  as speed: {:.1f} rpm", ml::digits_to_rpm(t.pd[1]));
         }

@@ -80,11 +80,18 @@ result<std::uint32_t> read_param(context& c, std::uint16_t index, std::uint8_t s
                               static_cast<std::uint8_t>(c.o.common.address), index, subindex);
 }
 
+// Bit 5 with "ready" is a warning, without it a fault (movilink.md §3.3); the high byte
+// is then that warning's or fault's number, else the unit status.
 std::string status_text(ml::status_word sw) {
-    return fmt::format("0x{:04X} (ready {}, output stage {}, fault {}, {} {})", sw.value,
-                       sw.ready() ? 1 : 0, sw.output_stage_enabled() ? 1 : 0, sw.fault() ? 1 : 0,
-                       sw.fault() ? "fault number" : "unit status",
-                       sw.fault() ? sw.fault_number() : sw.unit_status());
+    const char* high = sw.fault()     ? "fault number"
+                       : sw.warning() ? "warning number"
+                                      : "unit status";
+    const unsigned number = sw.fault()     ? sw.fault_number()
+                            : sw.warning() ? sw.warning_number()
+                                           : sw.unit_status();
+    return fmt::format("0x{:04X} (ready {}, output stage {}, fault {}, warning {}, {} {})",
+                       sw.value, sw.ready() ? 1 : 0, sw.output_stage_enabled() ? 1 : 0,
+                       sw.fault() ? 1 : 0, sw.warning() ? 1 : 0, high, number);
 }
 
 int cmd_status(context& c) {
@@ -113,8 +120,11 @@ int cmd_status(context& c) {
           {"status_word", sw.value},
           {"ready", sw.ready()},
           {"output_stage_enabled", sw.output_stage_enabled()},
+          {"state", ml::name(sw.state())},
           {"fault", sw.fault()},
           {"fault_number", sw.fault_number()},
+          {"warning", sw.warning()},
+          {"warning_number", sw.warning_number()},
           {"unit_status", sw.unit_status()},
           {"speed_rpm", speed},
           {"current_percent", current},
@@ -199,6 +209,7 @@ int cycle(context& c, std::array<std::uint16_t, 3> po, const char* what,
                   {"status_word", sw.value},
                   {"ready", sw.ready()},
                   {"fault", sw.fault()},
+                  {"warning", sw.warning()},
                   {"speed_rpm", ml::digits_to_rpm(pi->words[1])},
                   {"current_percent", ml::digits_to_current(pi->words[2])}},
                  fmt::format("t={:6.2f} s  status {}  speed {:7.1f} rpm  current {:5.1f} % I_N", t,

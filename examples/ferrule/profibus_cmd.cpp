@@ -30,7 +30,7 @@ struct profibus_options {
     unsigned master_address = 2;
     std::optional<unsigned> ident;
     std::optional<unsigned> watchdog_ms;
-    bool lock = false;
+    bool lock = true; // Lock_Req; --no-lock sends Set_Prm without it
     std::string user_prm;
     std::string cfg;
     std::string out;
@@ -137,6 +137,8 @@ int cmd_diag(context& c) {
     pb::slave_diag d;
     if (auto ec = pb::read_slave_diag(c.line(), c.master, c.slave(), d))
         return fail(c, "Slave_Diag", ec);
+    // Master_Lock is this master's conclusion from Master_Add, never the slave's (§B.5).
+    if (pb::locked_to_other(d, c.master.config().address)) d.status1 |= pb::diag::master_lock;
     nlohmann::json j = diag_json(d);
     j["ok"] = true;
     j["slave"] = c.slave();
@@ -151,7 +153,7 @@ pb::prm_data prm_from_options(const profibus_options& o, std::uint16_t ident,
     p.ident = ident;
     p.min_tsdr = static_cast<std::uint8_t>(pb::min_tsdr_bits);
     p.user = user;
-    if (o.lock) p.station_status |= pb::prm::lock_req;
+    p.station_status = o.lock ? pb::prm::lock_req : std::uint8_t{0};
     if (o.watchdog_ms) {
         p.station_status |= pb::prm::wd_on;
         p.set_watchdog_ms(*o.watchdog_ms);
@@ -168,14 +170,18 @@ std::string prm_text(const pb::prm_data& p) {
                   std::chrono::duration_cast<std::chrono::milliseconds>(p.watchdog()).count(),
                   p.wd_fact1, p.wd_fact2)
             : std::string("off"),
-        (p.station_status & pb::prm::lock_req) ? "locked" : "not locked", p.min_tsdr,
-        p.user.empty() ? std::string() : ", User_Prm_Data " + hex(p.user));
+        (p.station_status & pb::prm::lock_req)
+            ? "locked"
+            : "not locked (no Lock_Req: the slave takes only min_TSDR and User_Prm_Data)",
+        p.min_tsdr, p.user.empty() ? std::string() : ", User_Prm_Data " + hex(p.user));
 }
 
-// After Set_Prm or Chk_Cfg: the slave's verdict, from its diagnosis.
+// After Set_Prm or Chk_Cfg: the slave's verdict, from its diagnosis. A slave locked to
+// another master acknowledges both and takes neither.
 std::error_code verdict(context& c, std::uint8_t fault, pb::device_error error) {
     pb::slave_diag d;
     if (auto ec = pb::read_slave_diag(c.line(), c.master, c.slave(), d)) return ec;
+    if (pb::locked_to_other(d, c.master.config().address)) return pb::device_error::master_lock;
     if (d.status1 & fault) return error;
     return {};
 }
@@ -383,7 +389,9 @@ void add_profibus(CLI::App& app, int& exit_status) {
                         "switch the slave's watchdog on with this time (WD_Fact_1 x WD_Fact_2 x "
                         "10 ms)")
             ->transform(integer_in(10, 255 * 255 * 10, "WD_Fact_1 x WD_Fact_2 x 10 ms"));
-        sub->add_flag("--lock", o->lock, "Lock_Req: bind the slave to this master");
+        sub->add_flag("--lock,!--no-lock", o->lock,
+                      "Lock_Req (the default): bind the slave to this master and have it take all "
+                      "parameters; --no-lock: only min_TSDR and User_Prm_Data");
         sub->add_option("--user-prm", o->user_prm, "User_Prm_Data in hex");
     };
 

@@ -36,6 +36,9 @@ extern "C" void on_signal(int) {
 
 struct sim_options {
     std::vector<unsigned> addresses;
+    // MOVILINK drives
+    unsigned warning = 0;
+    unsigned fault = 0;
     // Dimetix sensors
     double distance_mm = 1234.5;
     double noise_mm = 0;
@@ -215,6 +218,11 @@ int main(int argc, char** argv) {
 
     auto* ml = app.add_subcommand("movilink", "SEW MOVITRAC B drives on one MOVILINK line");
     add_common(*ml, o, "RS-485 address (0-99); repeat for several drives on the line (default 1)");
+    ml->add_option("--warning", o.warning,
+                   "every drive signals this warning number, ready and running (1-255)")
+        ->check(CLI::Range(1, 255));
+    ml->add_option("--fault", o.fault, "every drive starts in this fault number (1-255)")
+        ->check(CLI::Range(1, 255));
     ml->callback([&] {
         if (o.addresses.empty()) o.addresses.push_back(1);
         std::deque<ferrule::movilink::sim::station> drives;
@@ -224,7 +232,12 @@ int main(int argc, char** argv) {
             cfg.address = static_cast<std::uint8_t>(a);
             drives.emplace_back(cfg);
         }
-        rc = serve(o, drives, "MOVITRAC B simulation", [](auto&) {});
+        rc = serve(o, drives, "MOVITRAC B simulation", [&](auto& all) {
+            for (auto& d : all) {
+                d.drive.inject_warning(static_cast<std::uint8_t>(o.warning));
+                d.drive.inject_fault(static_cast<std::uint8_t>(o.fault));
+            }
+        });
     });
 
     auto* dx = app.add_subcommand("dimetix", "Dimetix D-Series laser distance sensors on one line");

@@ -1,6 +1,7 @@
 // The PROFIBUS-DP master and the FDL codec never allocate: start-up, Data_Exchange with
-// timeouts, FCS errors, DH and RS replies, and Global_Control on a scripted line, run with
-// the counting global operator new of counting_new.hpp and the count must not move.
+// timeouts, FCS errors, DH and RS replies, and Global_Control on a scripted line, and the
+// cycle over three simulated slaves under poll_driver, run with the counting global operator
+// new of counting_new.hpp and the count must not move.
 #include <catch2/catch.hpp>
 
 #include <array>
@@ -10,9 +11,11 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/profibus/access.hpp"
+#include "ferrule/profibus/cycle.hpp"
 #include "ferrule/profibus/fdl.hpp"
+#include "ferrule/profibus/sim/bus.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 // The counter of counting_new.hpp, whose operator new may be defined in one file only
 // (no_heap_test.cpp): an inline variable, so this identical declaration names the same one.
@@ -150,4 +153,53 @@ TEST_CASE("PROFIBUS master start-up, data exchange and faults allocate nothing",
     CHECK(m->stats().bad_checksums == 4);
     CHECK(m->stats().data_high == 4);
     CHECK(m->stats().unacknowledged == 20);
+}
+
+TEST_CASE("PROFIBUS master cycle over three slaves allocates nothing", "[alloc][profibus]") {
+    const std::array<std::uint8_t, 2> cfg_a{0x11, 0x21};
+    const std::array<std::uint8_t, 1> cfg_b{0x33};
+    const auto slave = [](std::uint8_t address, std::span<const std::uint8_t> cfg) {
+        slave_config c;
+        c.baud = 187'500;
+        c.address = address;
+        c.ident = 0x0815;
+        c.cfg = cfg;
+        return c;
+    };
+    auto bus = std::make_unique<sim::bus<3>>();
+    bus->add(slave(5, cfg_a));
+    bus->add(slave(6, cfg_b));
+    bus->add(slave(7, cfg_a));
+    auto line = std::make_unique<ferrule::mock_serial>(format(187'500), bus.get());
+    master_config mc;
+    mc.format = format(187'500);
+    auto m = std::make_unique<master>(mc);
+    std::array<std::uint8_t, 4> out{1, 2, 3, 4};
+    std::array<std::array<std::uint8_t, 4>, 3> in{};
+    auto slaves = std::make_unique<std::array<cycle_slave, 3>>();
+    const std::array<std::span<const std::uint8_t>, 3> cfgs{cfg_a, cfg_b, cfg_a};
+    for (std::size_t i = 0; i < 3; ++i) {
+        cycle_slave& s = (*slaves)[i];
+        s.address = static_cast<std::uint8_t>(5 + i);
+        s.prm.ident = 0x0815;
+        s.cfg = cfgs[i];
+        const std::size_t n = i == 1 ? 4 : 2;
+        s.outputs = std::span<const std::uint8_t>(out.data(), n);
+        s.inputs = std::span<std::uint8_t>(in[i].data(), n);
+    }
+    auto c = std::make_unique<cycle>(*m, *slaves);
+    ferrule::poll_driver<ferrule::mock_serial, cycle> driver(*line, *c);
+
+    const auto before = ferrule_test::allocations.load();
+    const ferrule::time_point limit = line->now() + 5s;
+    while (c->passes() < 50 && ferrule::before(line->now(), limit)) {
+        driver.step();
+        line->advance(20us);
+        if (line->wire().size() > 64) line->clear_wire_log();
+    }
+    const auto after = ferrule_test::allocations.load();
+    CHECK(after - before == 0);
+    CHECK(c->passes() == 50);
+    CHECK(c->last_pass_exchanges() == 3);
+    CHECK((*slaves)[1].failures == 0);
 }

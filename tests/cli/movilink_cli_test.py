@@ -79,7 +79,56 @@ check("decode D4 error reply", rc == 0 and "invalid parameter index" in out, out
 rc, out, _ = run("decode", "movilink", "02 01 05 00 06 3A 98 01 F4 58")
 check("decode bad BCC", rc == 1 and "checksum mismatch" in out, out)
 
+
+# Status word 1, bits 1 (ready) and 5 (fault/warning) together (movilink.md §3.3).
+def pd3_reply(pi1):
+    body = [0x1D, 0x01, 0x05, pi1 >> 8, pi1 & 0xFF, 0x07, 0xD0, 0x02, 0xBC]
+    bcc = 0
+    for b in body:
+        bcc ^= b
+    return " ".join(f"{b:02X}" for b in body + [bcc])
+
+
+check("the issue's warning vector is built alike", pd3_reply(0x0427) == "1D 01 05 04 27 07 D0 02 BC 53")
+for pi1, state, text, numbers in [
+        (0x0104, "not ready", "ready 0, output stage 0, unit status 1", (0, 0, 1)),
+        (0x2B24, "fault", "ready 0, output stage 0, FAULT 43", (43, 0, 0)),
+        (0x0407, "ready", "ready 1, output stage 1, unit status 4", (0, 0, 4)),
+        (0x0427, "warning", "ready 1, output stage 1, WARNING 4", (0, 4, 0))]:
+    rc, out, _ = run("decode", "movilink", pd3_reply(pi1))
+    check(f"decode status word 0x{pi1:04X} text: {state}", rc == 0 and f"status word 1: {text}\n" in out, out)
+    rc, out, _ = run("decode", "movilink", pd3_reply(pi1), "--json")
+    j = json_lines(out)
+    sw = j[0].get("status_word", {}) if len(j) == 1 else {}
+    check(f"decode status word 0x{pi1:04X} JSON: {state}", rc == 0 and sw.get("value") == pi1
+          and sw.get("state") == state
+          and (sw.get("fault_number"), sw.get("warning_number"), sw.get("unit_status")) == numbers, out)
+
 print(sim.stop().strip().splitlines()[-1])
+
+# `movilink status` of a drive with a warning, then of one with a fault.
+sim = Sim(ferrule_sim, "movilink", "bus", "--warning", "4")
+rc, out, _ = run("movilink", "status", "--json", "--port", sim.link)
+j = json_lines(out)
+check("status of a drive with warning 4", rc == 0 and j[0]["state"] == "warning" and j[0]["ready"] is True
+      and j[0]["warning"] is True and j[0]["warning_number"] == 4 and j[0]["fault"] is False
+      and j[0]["fault_number"] == 0, out)
+rc, out, _ = run("movilink", "status", "--port", sim.link)
+check("status text names the warning", rc == 0
+      and "(ready 1, output stage 0, fault 0, warning 1, warning number 4)" in out, out)
+rc, out, _ = run("movilink", "watch", "--count", "3", "--interval", "0", "--json", "--port", sim.link)
+j = json_lines(out)
+check("watch: a warning is no failed exchange", rc == 0 and len(j) == 3 and all(x["warning"] for x in j), out)
+sim.stop()
+sim = Sim(ferrule_sim, "movilink", "bus", "--fault", "7")
+rc, out, _ = run("movilink", "status", "--json", "--port", sim.link)
+j = json_lines(out)
+check("status of a drive with fault 7", rc == 0 and j[0]["state"] == "fault" and j[0]["ready"] is False
+      and j[0]["fault"] is True and j[0]["fault_number"] == 7 and j[0]["warning"] is False, out)
+rc, out, _ = run("movilink", "status", "--port", sim.link)
+check("status text names the fault", rc == 0
+      and "(ready 0, output stage 0, fault 1, warning 0, fault number 7)" in out, out)
+sim.stop()
 
 # A lossy line: replies dropped or damaged, the master's resends get through.
 sim = Sim(ferrule_sim, "movilink", "bus", "--drop", "30", "--corrupt", "10", "--seed", "7")

@@ -39,6 +39,14 @@ for args, want in [(["diag"], "68 05 05 68 88 82 6D 3C 3E F1 16"),
                     "68 0C 0C 68 88 82 6D 3D 3E 88 0A 0A 0B 08 15 00 B6 16")]:
     rc, out, err = run("profibus", *args, "--dry-run", "--port", "/nonexistent")
     check(f"dry-run {' '.join(args)}", rc == 0 and out.strip() == want, out + err)
+# Lock_Req is the default; --no-lock sends Station_Status without it (only min_TSDR and
+# User_Prm_Data for the slave), --lock is still accepted.
+for flags, status in [([], "88"), (["--lock"], "88"), (["--no-lock"], "08")]:
+    rc, out, err = run("profibus", "set-prm", "--ident", "0x0815", "--watchdog-ms", "1000", *flags,
+                       "--dry-run")
+    tokens = out.split()
+    check(f"dry-run set-prm {' '.join(flags) or '(default)'}: Station_Status {status}",
+          rc == 0 and len(tokens) == 18 and tokens[9] == status, out + err)
 rc, _, err = run("profibus", "diag", "--address", "2", "--dry-run")
 check("the slave cannot have the master's address", rc == 2 and "--master-address" in err, err)
 
@@ -52,6 +60,14 @@ try:
           and "Station_Status_2  0x05  Prm_Req, always 1" in out
           and "Diag.Master_Add   255 (none)" in out and "Ident_Number      0x0815" in out
           and "extended          08 00 00 00 00 00 00 01" in out, out + err)
+    rc, out, err = run("profibus", "set-prm", "--ident", "0x0815", "--no-lock", "--watchdog-ms",
+                       "1000", *common)
+    rc2, out2, _ = run("profibus", "diag", "--json", *common)
+    j = json_lines(out2)
+    check("set-prm --no-lock: the slave keeps waiting for parameters", rc == 0
+          and "not locked (no Lock_Req" in out and rc2 == 0 and len(j) == 1
+          and "Prm_Req" in j[0]["station_status_2"] and "WD_On" not in j[0]["station_status_2"]
+          and j[0]["master_address"] == 255, out + err + out2)
     rc, out, err = run("profibus", "get-cfg", "--json", *common)
     j = json_lines(out)
     check("get-cfg: 5 bytes out, 5 in", rc == 0 and len(j) == 1 and j[0]["cfg"] == "24 14"
@@ -72,6 +88,20 @@ try:
     j = json_lines(out)
     check("diag in Data_Exchange: ready, no flags", rc == 0 and len(j) == 1 and j[0]["ready"]
           and j[0]["station_status_1"] == [] and j[0]["station_status_2"] == ["always 1"], out)
+
+    # Locked to master 2: master 3's Set_Prm is acknowledged and not taken, whatever it asks.
+    for flags in ([], ["--no-lock"]):
+        rc, out, err = run("profibus", "set-prm", "--ident", "0x0815", "--master-address", "3",
+                           *flags, *common)
+        check(f"set-prm from master 3 {' '.join(flags)}: locked to another master", rc == 1
+              and "ferrule: Set_Prm: slave 8: locked to another master (Master_Lock)" in err,
+              out + err)
+    rc, out, err = run("profibus", "diag", "--master-address", "3", *common)
+    check("diag from master 3: Master_Add 2, so Master_Lock", rc == 0
+          and "Station_Status_1  0x80  Master_Lock" in out and "Diag.Master_Add   2\n" in out,
+          out + err)
+    rc, out, err = run("profibus", "exchange", "--out", START, "--no-init", *common)
+    check("master 2 still exchanges data", rc == 0 and f"outputs {START}" in out, out + err)
 
     rc, out, err = run("profibus", "set-prm", "--ident", "0x1234", *common)
     check("set-prm with a wrong ident: the slave's Prm_Fault", rc == 1

@@ -171,6 +171,36 @@ TEST_CASE("gateway: DP watchdog expiry stops the drive with the safe write", "[g
     CHECK(s.rig.drives()[0].drive().control_word() == 0x0000);
 }
 
+TEST_CASE("gateway: Set_Prm without Lock_Req, or from another master, does not drop DP",
+          "[gateway][lock]") {
+    setup s(19'200, 19'200);
+    REQUIRE_FALSE(pb::bring_up(s.dp_line, s.master, 8, prm(), cfg5));
+    const octets start{0x06, 0xC8, 0x00, 0x00, 0x25};
+    octets in;
+    for (int cycle = 0; cycle < 40 && in != start; ++cycle) REQUIRE_FALSE(s.exchange(start, in));
+    REQUIRE(s.rig.drives()[0].drive().control_word() == 0x0025);
+
+    // The locking master's Set_Prm without Lock_Req: only min_TSDR and User_Prm_Data.
+    pb::prm_data overwrite = prm(1);
+    overwrite.station_status = pb::prm::wd_on;
+    REQUIRE_FALSE(pb::set_prm(s.dp_line, s.master, 8, overwrite));
+    CHECK(s.rig.core().dp().state() == pb::slave_state::data_exchange);
+    CHECK(s.rig.core().dp().watchdog() == 1000ms);
+
+    // Master 3 on the same line: acknowledged, not taken, and told by Master_Add.
+    pb::master_config c3 = setup::master_config(19'200);
+    c3.address = 3;
+    pb::master other(c3);
+    CHECK(pb::bring_up(s.dp_line, other, 8, prm(), cfg5) == pb::device_error::master_lock);
+    CHECK(s.rig.core().dp().master_address() == 2);
+
+    REQUIRE_FALSE(s.exchange(start, in));
+    CHECK(in == start);
+    CHECK(s.rig.core().stats().dp_losses == 0);
+    CHECK(s.rig.core().stats().safe_writes == 0);
+    CHECK(s.rig.drives()[0].drive().control_word() == 0x0025);
+}
+
 TEST_CASE("gateway: Clear_Data discards waiting commands and sends the safe write", "[gateway]") {
     setup s(187'500, 2'400);
     REQUIRE_FALSE(pb::bring_up(s.dp_line, s.master, 8, prm(), cfg5));

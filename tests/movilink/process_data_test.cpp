@@ -54,6 +54,49 @@ TEST_CASE("status word 1: bits and high byte", "[movilink][process_data]") {
     CHECK(status_word::make(false, false, true, true, 43) == fault);
 }
 
+TEST_CASE("status word 1: bits 1 and 5 together", "[movilink][process_data]") {
+    // movilink.md §3.3: ready 0 / fault 0 not ready, 0/1 fault, 1/0 ready, 1/1 warning.
+    using cond = status_word::condition;
+    SECTION("0/0: not ready, the high byte is the unit status") {
+        const status_word sw{0x0104};
+        CHECK(sw.state() == cond::not_ready);
+        CHECK_FALSE(sw.fault());
+        CHECK_FALSE(sw.warning());
+        CHECK(sw.unit_status() == status_word::unit_status_controller_inhibit);
+        CHECK(std::string_view(name(sw.state())) == "not ready");
+    }
+    SECTION("0/1: fault with its number") {
+        const status_word sw{0x2B24};
+        CHECK(sw.state() == cond::fault);
+        CHECK(sw.fault());
+        CHECK_FALSE(sw.warning());
+        CHECK(sw.fault_number() == 43);
+        CHECK(sw.warning_number() == 0);
+        CHECK(sw.unit_status() == 0);
+        CHECK(std::string_view(name(sw.state())) == "fault");
+    }
+    SECTION("1/0: ready, the high byte is the unit status") {
+        const status_word sw{0x0407};
+        CHECK(sw.state() == cond::ready);
+        CHECK_FALSE(sw.fault_or_warning());
+        CHECK(sw.unit_status() == status_word::unit_status_enable);
+        CHECK(sw.fault_number() == 0);
+        CHECK(sw.warning_number() == 0);
+    }
+    SECTION("1/1: a warning with its number, not a fault") {
+        const status_word sw{0x0427}; // ferrule decode movilink 1D 01 05 04 27 07 D0 02 BC 53
+        CHECK(sw.state() == cond::warning);
+        CHECK(sw.warning());
+        CHECK_FALSE(sw.fault());
+        CHECK(sw.fault_or_warning());
+        CHECK(sw.warning_number() == 4);
+        CHECK(sw.fault_number() == 0);
+        CHECK(sw.unit_status() == 0);
+        CHECK(std::string_view(name(sw.state())) == "warning");
+        CHECK(status_word::make(true, true, true, true, 4) == sw);
+    }
+}
+
 TEST_CASE("speed: 0.2 rpm per digit", "[movilink][process_data]") {
     CHECK(rpm_to_digits(400) == 0x07D0);  // MTB: CW 400 rpm
     CHECK(rpm_to_digits(-750) == 0xF15A); // MTB: CCW 750 rpm

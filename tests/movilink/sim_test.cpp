@@ -10,13 +10,14 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/sim/mock_serial.hpp"
+#include "ferrule/movilink/cyclic.hpp"
 #include "ferrule/movilink/error.hpp"
 #include "ferrule/movilink/frame.hpp"
 #include "ferrule/movilink/master.hpp"
 #include "ferrule/movilink/process_data.hpp"
 #include "ferrule/movilink/sim/bus.hpp"
 #include "ferrule/movilink/sim/movitrac_b.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace ferrule;
 using namespace ferrule::movilink;
@@ -269,6 +270,28 @@ TEST_CASE("sim: injected fault, cleared by a reset edge", "[movilink][sim]") {
     CHECK(d.handle(pd3(reset), at(2300ms)).pd[0] == 0x0924);
     d.handle(pd3(po_words(control_word::enable(), 1500, 1000ms)), at(2400ms));
     CHECK(d.handle(pd3(reset), at(2500ms)).pd[0] == 0x0407);
+}
+
+TEST_CASE("sim: an injected warning keeps the drive ready and running", "[movilink][sim]") {
+    sim::movitrac_b d;
+    const words enable = po_words(control_word::enable(), 1500, 1000ms);
+    d.handle(pd3(enable), at(0ms));
+    d.inject_warning(5);
+    telegram rsp = d.handle(pd3(enable), at(2s));
+    const status_word sw{rsp.pd[0]};
+    CHECK(sw.state() == status_word::condition::warning);
+    CHECK(sw.warning_number() == 5);
+    CHECK_FALSE(sw.fault());
+    CHECK(sw.output_stage_enabled());
+    CHECK(rsp.pd[0] == 0x0527);
+    CHECK(rsp.pd[1] == rpm_to_digits(1500));
+
+    // A fault takes precedence; the reset edge clears both.
+    d.inject_fault(7);
+    CHECK(d.handle(pd3(enable), at(2100ms)).pd[0] == 0x0724);
+    rsp = d.handle(pd3(po_words(control_word::enable().with_reset(), 1500, 1000ms)), at(2200ms));
+    CHECK(rsp.pd[0] == 0x0407);
+    CHECK(d.warning_number() == 0);
 }
 
 TEST_CASE("sim: parameter services and return codes", "[movilink][sim]") {
@@ -693,6 +716,34 @@ TEST_CASE("end to end: parameters by index, device errors, retries and the fault
         CHECK_FALSE(acyclic(dflt, param_channel::make(service::read, ix::p000_speed)));
         CHECK(dflt.reply().param.data == 1500000);
     }
+}
+
+TEST_CASE("end to end: a drive's warning is a good cycle, not a failure towards the latch",
+          "[movilink][sim][e2e]") {
+    sim::bus<1> bus;
+    mock_serial line(default_format, &bus);
+    auto* st = bus.add();
+    master_config latch_at_once;
+    latch_at_once.fault_threshold = 1;
+    master m(latch_at_once);
+    cyclic c(m, 1);
+    const words enable = po_words(control_word::enable(), 1500, 1000ms);
+    for (std::size_t i = 0; i < enable.size(); ++i) c.set_po(i, enable[i]);
+    st->drive.inject_warning(4);
+    ferrule::poll_driver drv(line, c);
+    while (c.cycles() < 5 && line.now() < at(1s)) {
+        drv.step();
+        line.advance(100us);
+    }
+    CHECK(c.cycles() == 5);
+    CHECK(c.failed_cycles() == 0);
+    CHECK_FALSE(c.error());
+    CHECK(m.consecutive_failures() == 0);
+    CHECK_FALSE(m.fault_latched());
+    CHECK(m.stats().failed == 0);
+    const status_word sw{c.pi(0)};
+    CHECK(sw.warning());
+    CHECK(sw.warning_number() == 4);
 }
 
 TEST_CASE("end to end: the master polls the handshake of a slow cyclic service",

@@ -1,14 +1,17 @@
 // A class-1 master cycling three DP-V0 slaves on one simulated line (profibus::sim::bus), in
-// virtual time: all brought to Data_Exchange, I/O both ways, a slave with the wrong ident
-// kept out, DH answered by a diagnosis read, a slave that stops answering brought back.
+// virtual time, stepped by poll_driver as a super-loop does: all brought to Data_Exchange,
+// I/O both ways, a slave with the wrong ident or locked to another master kept out, DH
+// answered by a diagnosis read, a slave that stops answering brought back, and a wait for
+// the first retry when no slave can run.
 #include <catch2/catch.hpp>
 
 #include <array>
 #include <vector>
 
-#include "ferrule/sim/mock_serial.hpp"
+#include "ferrule/core/driver.hpp"
 #include "ferrule/profibus/cycle.hpp"
 #include "ferrule/profibus/sim/bus.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace std::chrono_literals;
 using namespace ferrule;
@@ -53,6 +56,8 @@ struct line3 {
     std::array<std::uint8_t, 4> in_b{};
     std::array<std::uint8_t, 1> in_c{};
     std::array<pb::cycle_slave, 3> slaves{};
+    pb::cycle cycle{master, slaves};
+    poll_driver<mock_serial, pb::cycle> driver{line, cycle};
 
     explicit line3(std::uint16_t ident_c_expected = 0x0C00) {
         bus.add(slave(5, 0x0A00, cfg_a));
@@ -68,7 +73,17 @@ struct line3 {
                      .outputs = {},
                      .inputs = in_c};
     }
-    std::size_t pass() { return pb::run_cycle(line, master, slaves); }
+    // Steps the super-loop until the pass under way ends; the Data_Exchanges it carried.
+    std::size_t pass() {
+        const auto passes = cycle.passes();
+        const time_point limit = line.now() + 5s;
+        while (cycle.passes() == passes && before(line.now(), limit)) {
+            driver.step();
+            line.advance(20us); // the rest of the main loop
+        }
+        REQUIRE(cycle.passes() == passes + 1);
+        return cycle.last_pass_exchanges();
+    }
 };
 
 } // namespace
@@ -134,4 +149,49 @@ TEST_CASE("profibus master cycle brings back a slave that stopped answering", "[
     CHECK(l.pass() == 3);
     CHECK(l.slaves[0].bring_ups == 2);
     CHECK(l.slaves[0].exchanging);
+}
+
+TEST_CASE("profibus master cycle keeps a slave locked to another master out",
+          "[profibus][cycle][lock]") {
+    line3 l;
+    pb::master_config c3;
+    c3.format = pb::format(187'500);
+    c3.address = 3;
+    pb::master other(c3);
+    REQUIRE_FALSE(pb::bring_up(l.line, other, 6, prm(0x0B00), cfg_b));
+    CHECK(l.pass() == 2);
+    CHECK_FALSE(l.slaves[1].exchanging);
+    CHECK(l.slaves[1].last_error == pb::device_error::master_lock);
+    CHECK(l.bus[1].master_address() == 3);
+    CHECK(l.slaves[1].bring_ups == 1);
+}
+
+TEST_CASE("profibus master cycle waits for the first retry when no slave can run",
+          "[profibus][cycle]") {
+    line3 l(0x0C01);
+    l.slaves[0].address = 20; // no station there
+    l.slaves[1].prm.ident = 0x0B01;
+    pb::cycle c(l.master, l.slaves, {.retry_after = 300ms, .diag_polls = 2});
+    poll_driver<mock_serial, pb::cycle> driver(l.line, c);
+    const time_point limit = l.line.now() + 2s;
+    while (c.passes() == 0 && before(l.line.now(), limit)) {
+        driver.step();
+        l.line.advance(20us);
+    }
+    REQUIRE(c.passes() == 1);
+    CHECK(c.last_pass_exchanges() == 0);
+    CHECK(l.slaves[0].last_error == errc::timeout);
+    CHECK(l.slaves[1].last_error == pb::device_error::prm_fault);
+    CHECK(l.slaves[2].last_error == pb::device_error::prm_fault);
+    // Nothing to send: the session waits for slave 20's retry, the earliest.
+    const session_action a = c.next(l.line.now());
+    REQUIRE(a.what == session_action::kind::wait);
+    CHECK(a.deadline == l.slaves[0].retry_at);
+    const std::size_t written = l.line.wire().size();
+    CHECK(driver.step() == session_action::kind::wait);
+    CHECK(l.line.wire().size() == written);
+    l.line.advance(a.deadline - l.line.now());
+    CHECK(driver.step() == session_action::kind::send);
+    CHECK(l.line.wire().size() > written);
+    CHECK(l.slaves[0].bring_ups == 2);
 }

@@ -75,6 +75,27 @@ TEST_CASE("profibus configuration identifiers give the I/O sizes", "[profibus]")
     CHECK(cfg_io_sizes(bytes{0x82, 0x01}).error() == errc::malformed);
 }
 
+TEST_CASE("profibus Set_Prm sends Lock_Req unless told otherwise", "[profibus][lock]") {
+    prm_data p;
+    p.ident = 0x0815;
+    CHECK(p.lock_request() == prm_lock::lock);
+    std::array<std::uint8_t, 16> out{};
+    REQUIRE(*encode_prm(p, out) == prm::standard_size);
+    CHECK(out[0] == prm::lock_req);
+    // Bits 7 / 6 of Station_Status, row by row (FPBA-01 "SAP 61", Festo CP FB13-E).
+    const auto lock_of = [](std::uint8_t status) {
+        prm_data q;
+        q.station_status = status;
+        return q.lock_request();
+    };
+    CHECK(lock_of(0x00) == prm_lock::overwrite);
+    CHECK(lock_of(prm::wd_on | prm::sync_req) == prm_lock::overwrite);
+    CHECK(lock_of(prm::lock_req) == prm_lock::lock);
+    CHECK(lock_of(0xB8) == prm_lock::lock); // an S7: Lock, Sync, Freeze, WD_On
+    CHECK(lock_of(prm::unlock_req) == prm_lock::unlock);
+    CHECK(lock_of(prm::lock_req | prm::unlock_req) == prm_lock::unlock);
+}
+
 TEST_CASE("profibus Set_Prm watchdog factors for a time in milliseconds", "[profibus]") {
     prm_data p;
     p.set_watchdog_ms(1000); // 100 units: 10 × 10

@@ -331,6 +331,136 @@ TEST_CASE("profibus slave: a locked slave ignores another master's parameters",
     CHECK(b.s.state() == slave_state::wait_prm);
 }
 
+namespace {
+
+// Set_Prm from master `sa` with Station_Status `status`: watchdog 10 × 10, min_TSDR
+// `tsdr`, ident 0x0815, group `group`, User_Prm_Data `user`.
+bytes set_prm_from(std::uint8_t sa, std::uint8_t status, std::uint8_t tsdr = 0x0B,
+                   std::uint8_t group = 0, const bytes& user = {}) {
+    bytes du{status, 0x0A, 0x0A, tsdr, 0x08, 0x15, group};
+    du.insert(du.end(), user.begin(), user.end());
+    return telegram_bytes(8, sa, request_code(request_fn::srd_high, false, false), 61, 62, du);
+}
+
+slave_diag diag_from(bench& b, std::uint8_t sa) {
+    const auto r = b.request(
+        telegram_bytes(8, sa, request_code(request_fn::srd_high, false, false), 60, 62, {}));
+    REQUIRE(r);
+    const bytes du(r->data.begin() + 6, r->data.end() - 2); // SD3: 6 bytes of diagnosis
+    const auto d = parse_slave_diag(du);
+    REQUIRE(d);
+    return *d;
+}
+
+bytes user_prm_of(const slave& s) {
+    return {s.user_prm().begin(), s.user_prm().end()};
+}
+
+} // namespace
+
+// Lock_Req / Unlock_Req, row by row (prm_lock in services.hpp: IEC 61158 as ABB FPBA-01
+// "SAP 61" and Festo CP FB13-E print it).
+TEST_CASE("profibus slave Set_Prm Lock 0 / Unlock 0: only min_TSDR and User_Prm_Data",
+          "[profibus][slave][lock]") {
+    bench b;
+    SECTION("a slave waiting for parameters takes no others and keeps waiting") {
+        CHECK(b.request(set_prm_from(2, prm::wd_on, 20, 1, {0xAB}))->data == sc_reply);
+        CHECK(b.s.state() == slave_state::wait_prm);
+        CHECK(b.s.master_address() == diag::no_master);
+        CHECK(b.s.watchdog() == duration::zero());
+        CHECK(user_prm_of(b.s) == bytes{0xAB});
+        const auto ack = b.request(fdl_status_req);
+        CHECK(ack->start - ack->request_end == bit_times(19'200, 20));
+        const slave_diag d = diag_from(b, 2);
+        CHECK((d.status2 & diag::prm_req) != 0);
+        CHECK((d.status1 & diag::prm_fault) == 0);
+        CHECK(d.master == diag::no_master);
+        // Chk_Cfg is still not acted upon: parameters never came.
+        CHECK(b.request(chk_cfg_req)->data == sc_reply);
+        CHECK(b.s.state() == slave_state::wait_prm);
+    }
+    SECTION("a slave in Data_Exchange keeps its lock, watchdog, group, state and outputs") {
+        b.bring_up();
+        const bytes out{0x12, 0x34};
+        REQUIRE(b.request(data_exchange_req(out, false)));
+        CHECK(b.request(set_prm_from(2, 0x00, 30, 5, {0x01, 0x02}))->data == sc_reply);
+        CHECK(b.s.state() == slave_state::data_exchange);
+        CHECK(b.s.master_address() == 2);
+        CHECK(b.s.watchdog() == 1000ms);
+        CHECK(bytes(b.s.outputs().begin(), b.s.outputs().end()) == out);
+        CHECK(user_prm_of(b.s) == (bytes{0x01, 0x02}));
+        const auto ack = b.request(fdl_status_req);
+        CHECK(ack->start - ack->request_end == bit_times(19'200, 30));
+        // Group 0 is kept: Global_Control for group 5 (0x05 & 0) is not for this slave.
+        const auto before = b.s.stats().global_controls;
+        b.request(telegram_bytes(broadcast_address, 2,
+                                 request_code(request_fn::sdn_high, false, false), 58, 62,
+                                 {control::clear_data, 0x05}));
+        CHECK(b.s.stats().global_controls == before);
+    }
+    SECTION("a wrong ident is not checked: the ident is not a parameter taken here") {
+        const bytes du{0x00, 0x0A, 0x0A, 0x0B, 0x12, 0x34, 0x00};
+        CHECK(b.request(telegram_bytes(8, 2, request_code(request_fn::srd_high, false, false), 61,
+                                       62, du))
+                  ->data == sc_reply);
+        CHECK((diag_from(b, 2).status1 & diag::prm_fault) == 0);
+    }
+}
+
+TEST_CASE("profibus slave Set_Prm Lock 1 / Unlock 0: locked to the master, all parameters",
+          "[profibus][slave][lock]") {
+    bench b;
+    CHECK(b.request(set_prm_from(3, prm::lock_req | prm::wd_on, 20, 1, {0xCD}))->data == sc_reply);
+    CHECK(b.s.state() == slave_state::wait_cfg);
+    CHECK(b.s.master_address() == 3);
+    CHECK(b.s.watchdog() == 1000ms);
+    CHECK(user_prm_of(b.s) == bytes{0xCD});
+    const slave_diag d = diag_from(b, 3);
+    CHECK(d.master == 3);
+    CHECK((d.status2 & diag::prm_req) == 0);
+    CHECK((d.status2 & diag::wd_on) != 0);
+}
+
+TEST_CASE("profibus slave Set_Prm Unlock 1: released for other masters, with or without Lock",
+          "[profibus][slave][lock]") {
+    const std::uint8_t status =
+        GENERATE(std::uint8_t{prm::unlock_req}, std::uint8_t{prm::lock_req | prm::unlock_req});
+    bench b;
+    b.bring_up();
+    CHECK(b.request(set_prm_from(2, status | prm::wd_on, 40, 3, {0xEE}))->data == sc_reply);
+    CHECK(b.s.state() == slave_state::wait_prm);
+    CHECK(b.s.master_address() == diag::no_master);
+    CHECK(b.s.outputs()[0] == 0);
+    CHECK(user_prm_of(b.s).empty()); // no parameter taken
+    const slave_diag d = diag_from(b, 3);
+    CHECK(d.master == diag::no_master);
+    CHECK((d.status2 & diag::prm_req) != 0);
+    // Another master may lock it now.
+    CHECK(b.request(set_prm_from(3, prm::lock_req))->data == sc_reply);
+    CHECK(b.s.master_address() == 3);
+}
+
+TEST_CASE("profibus slave locked to master 2 refuses every Set_Prm of master 3",
+          "[profibus][slave][lock]") {
+    const std::uint8_t status =
+        GENERATE(std::uint8_t{0x00}, std::uint8_t{prm::lock_req}, std::uint8_t{prm::unlock_req},
+                 std::uint8_t{prm::lock_req | prm::unlock_req});
+    bench b;
+    b.bring_up();
+    CHECK(b.request(set_prm_from(3, status | prm::wd_on, 40, 3, {0xEE}))->data == sc_reply);
+    CHECK(b.s.state() == slave_state::data_exchange);
+    CHECK(b.s.master_address() == 2);
+    CHECK(user_prm_of(b.s).empty());
+    const auto ack = b.request(fdl_status_req);
+    CHECK(ack->start - ack->request_end == bit_times(19'200, 11));
+    // Master 3 reads Master_Add 2: the slave is ready, for master 2 (Master_Lock is the
+    // reading master's own conclusion, never set by the slave).
+    const slave_diag d = diag_from(b, 3);
+    CHECK(d.master == 2);
+    CHECK(d.ready());
+    CHECK((d.status1 & diag::master_lock) == 0);
+}
+
 TEST_CASE("profibus slave: broken telegrams and other stations' traffic get no reply",
           "[profibus][slave]") {
     bench b;

@@ -56,22 +56,27 @@ struct status_word {
     static constexpr std::uint16_t output_stage_enabled_bit = 0x0001;
     static constexpr std::uint16_t ready_bit = 0x0002;
     static constexpr std::uint16_t po_data_enabled_bit = 0x0004;
-    static constexpr std::uint16_t fault_bit = 0x0020; // fault / warning
+    static constexpr std::uint16_t fault_warning_bit = 0x0020; // fault / warning
 
-    // High byte when no fault is signalled (movilink.md §3.3: MTB 0x1 controller inhibit;
-    // MOVIMOT list 2 no enable, 4 enable).
+    // High byte when no fault or warning is signalled (movilink.md §3.3: MTB 0x1 controller
+    // inhibit; MOVIMOT list 2 no enable, 4 enable).
     static constexpr std::uint8_t unit_status_controller_inhibit = 0x1;
     static constexpr std::uint8_t unit_status_no_enable = 0x2;
     static constexpr std::uint8_t unit_status_enable = 0x4;
 
+    // What bits 1 (ready) and 5 (fault/warning) say together (movilink.md §3.3, MOVITRAC 31
+    // unit profile p.35): 0/0 not ready, 0/1 fault, 1/0 ready, 1/1 warning.
+    enum class condition : std::uint8_t { not_ready, fault, ready, warning };
+
     std::uint16_t value = 0;
 
     static constexpr status_word make(bool output_stage_enabled, bool ready, bool po_data_enabled,
-                                      bool fault, std::uint8_t high_byte) noexcept {
-        return {static_cast<std::uint16_t>(
-            (std::uint16_t{high_byte} << 8) |
-            (output_stage_enabled ? output_stage_enabled_bit : 0) | (ready ? ready_bit : 0) |
-            (po_data_enabled ? po_data_enabled_bit : 0) | (fault ? fault_bit : 0))};
+                                      bool fault_or_warning, std::uint8_t high_byte) noexcept {
+        return {static_cast<std::uint16_t>((std::uint16_t{high_byte} << 8) |
+                                           (output_stage_enabled ? output_stage_enabled_bit : 0) |
+                                           (ready ? ready_bit : 0) |
+                                           (po_data_enabled ? po_data_enabled_bit : 0) |
+                                           (fault_or_warning ? fault_warning_bit : 0))};
     }
 
     constexpr bool output_stage_enabled() const noexcept {
@@ -79,18 +84,39 @@ struct status_word {
     }
     constexpr bool ready() const noexcept { return (value & ready_bit) != 0; }
     constexpr bool po_data_enabled() const noexcept { return (value & po_data_enabled_bit) != 0; }
-    constexpr bool fault() const noexcept { return (value & fault_bit) != 0; }
-    // Bit 5 decides what the high byte holds: the fault number, else the unit status.
-    // Each accessor returns 0 when the high byte holds the other one.
+    // Bit 5 alone: a fault or a warning is pending; ready() tells which.
+    constexpr bool fault_or_warning() const noexcept { return (value & fault_warning_bit) != 0; }
+    constexpr condition state() const noexcept {
+        if (fault_or_warning()) return ready() ? condition::warning : condition::fault;
+        return ready() ? condition::ready : condition::not_ready;
+    }
+    constexpr bool fault() const noexcept { return state() == condition::fault; }
+    constexpr bool warning() const noexcept { return state() == condition::warning; }
+    // Bit 5 decides what the high byte holds: the fault or warning number, else the unit
+    // status. Each accessor returns 0 when the high byte holds something else.
     constexpr std::uint8_t unit_status() const noexcept {
-        return fault() ? 0 : static_cast<std::uint8_t>(value >> 8);
+        return fault_or_warning() ? 0 : high_byte();
     }
-    constexpr std::uint8_t fault_number() const noexcept {
-        return fault() ? static_cast<std::uint8_t>(value >> 8) : 0;
-    }
+    constexpr std::uint8_t fault_number() const noexcept { return fault() ? high_byte() : 0; }
+    constexpr std::uint8_t warning_number() const noexcept { return warning() ? high_byte() : 0; }
 
     friend constexpr bool operator==(status_word, status_word) = default;
+
+private:
+    constexpr std::uint8_t high_byte() const noexcept {
+        return static_cast<std::uint8_t>(value >> 8);
+    }
 };
+
+constexpr const char* name(status_word::condition c) noexcept {
+    switch (c) {
+    case status_word::condition::not_ready: return "not ready";
+    case status_word::condition::fault: return "fault";
+    case status_word::condition::ready: return "ready";
+    case status_word::condition::warning: return "warning";
+    }
+    return "unknown";
+}
 
 namespace detail {
 // Rounds to nearest (halves away from zero) and saturates to int16; NaN gives 0.

@@ -84,10 +84,22 @@ std::error_code send_global_control(S& stream, master& m, const global_control& 
     return ec;
 }
 
+// What a Slave_Diag read during start-up says of slave and master `master`: empty when the
+// slave is ready for Data_Exchange; device_error::master_lock when Diag.Master_Add names
+// another master (the slave acknowledged Set_Prm and Chk_Cfg but did not take them); else
+// prm_fault or cfg_fault when the diagnosis says so, or not_ready.
+inline std::error_code start_up_verdict(const slave_diag& d, std::uint8_t master) noexcept {
+    if (locked_to_other(d, master)) return device_error::master_lock;
+    if (d.ready()) return {};
+    if (d.status1 & diag::prm_fault) return device_error::prm_fault;
+    if (d.status1 & diag::cfg_fault) return device_error::cfg_fault;
+    return device_error::not_ready;
+}
+
 // The master's start-up of slave `da` (§B.6): FDL_Status → Slave_Diag → Set_Prm → Chk_Cfg →
 // Slave_Diag until ready() (at most diag_polls times). The slave's FCB starts over
-// (reset_fcb). Returns the first error; after the polls device_error::prm_fault or cfg_fault
-// when the last diagnosis says so, else device_error::not_ready while it is not ready.
+// (reset_fcb). Returns the first error, device_error::master_lock at once, else the verdict
+// of the last diagnosis (start_up_verdict).
 template <session_stream S>
 std::error_code bring_up(S& stream, master& m, std::uint8_t da, const prm_data& p,
                          std::span<const std::uint8_t> cfg, unsigned diag_polls = 10) {
@@ -97,13 +109,13 @@ std::error_code bring_up(S& stream, master& m, std::uint8_t da, const prm_data& 
     if (auto ec = read_slave_diag(stream, m, da, d)) return ec;
     if (auto ec = set_prm(stream, m, da, p)) return ec;
     if (auto ec = chk_cfg(stream, m, da, cfg)) return ec;
+    std::error_code verdict = start_up_verdict(d, m.config().address);
     for (unsigned i = 0; i < diag_polls; ++i) {
         if (auto ec = read_slave_diag(stream, m, da, d)) return ec;
-        if (d.ready()) return {};
+        verdict = start_up_verdict(d, m.config().address);
+        if (!verdict || verdict == device_error::master_lock) return verdict;
     }
-    if (d.status1 & diag::prm_fault) return device_error::prm_fault;
-    if (d.status1 & diag::cfg_fault) return device_error::cfg_fault;
-    return device_error::not_ready;
+    return verdict;
 }
 
 } // namespace ferrule::profibus

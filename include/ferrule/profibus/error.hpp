@@ -3,7 +3,7 @@
 // (ferrule::errc: timeout = no reply, bad_checksum = FCS error). Values:
 //   * the response function codes UE, RR, RS, NR (FC bits 3…0, §B.3) as the slave sent them;
 //   * the verdicts of a Slave_Diag after the start-up sequence of §B.6 (Prm_Fault, Cfg_Fault,
-//     still not ready), above the FC range.
+//     locked to another master, still not ready), above the FC range.
 #pragma once
 
 #include <system_error> // std::string of message(): the category interface needs it
@@ -20,6 +20,9 @@ enum class device_error : int {
     prm_fault = 0x100, // Station_Status_1 Prm_Fault after Set_Prm (§B.5)
     cfg_fault = 0x101, // Station_Status_1 Cfg_Fault after Chk_Cfg (§B.5)
     not_ready = 0x102, // not ready for Data_Exchange after the last Slave_Diag poll
+    // Diag.Master_Add names another master: the slave is locked to it and ignores this one
+    // (the master's own Station_Status_1 Master_Lock, §B.5)
+    master_lock = 0x103,
 };
 
 class device_category_t final : public std::error_category {
@@ -36,6 +39,7 @@ public:
         case device_error::prm_fault: return "slave: parameter fault (Prm_Fault)";
         case device_error::cfg_fault: return "slave: configuration fault (Cfg_Fault)";
         case device_error::not_ready: return "slave: not ready for data exchange";
+        case device_error::master_lock: return "slave: locked to another master (Master_Lock)";
         }
         return "unknown PROFIBUS slave error";
     }

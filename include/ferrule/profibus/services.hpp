@@ -38,6 +38,12 @@ struct slave_diag {
     }
 };
 
+// Diag.Master_Add names a master other than `master`: the slave is locked to that one, and
+// `master` sets Master_Lock in its own view of Station_Status_1 (§B.5).
+constexpr bool locked_to_other(const slave_diag& d, std::uint8_t master) noexcept {
+    return d.master != diag::no_master && d.master != master;
+}
+
 // At least the six standard bytes; the rest is extended diagnosis.
 inline result<slave_diag> parse_slave_diag(std::span<const std::uint8_t> du) noexcept {
     if (du.size() < diag::standard_size) return errc::malformed;
@@ -66,8 +72,17 @@ inline result<std::size_t> encode_slave_diag(const slave_diag& d,
     return n;
 }
 
+// What Set_Prm's Lock_Req (bit 7) and Unlock_Req (bit 6) ask of the slave (IEC 61158 /
+// EN 50170 table, as ABB FPBA-01 "SAP 61 (Set_Prm)" and Festo CP FB13-E "Octet 1: Station
+// status" print it): 0/0 only min_TSDR and the slave-specific parameters (User_Prm_Data) may
+// be overwritten; 1/0 the slave is locked to this master and takes all parameters; 0/1 and
+// 1/1 the slave is released (unlocked) for other masters.
+enum class prm_lock : std::uint8_t { overwrite, lock, unlock };
+
 struct prm_data {
-    std::uint8_t station_status = 0; // prm::lock_req, unlock_req, sync_req, freeze_req, wd_on
+    // prm::lock_req, unlock_req, sync_req, freeze_req, wd_on. Lock_Req by default: without
+    // it a standard slave takes no parameters but min_TSDR and User_Prm_Data.
+    std::uint8_t station_status = prm::lock_req;
     std::uint8_t wd_fact1 = 1;
     std::uint8_t wd_fact2 = 1;
     std::uint8_t min_tsdr = 0; // bit times; 0 = keep the slave's
@@ -76,6 +91,10 @@ struct prm_data {
     std::span<const std::uint8_t> user{}; // User_Prm_Data
 
     constexpr bool watchdog_on() const noexcept { return (station_status & prm::wd_on) != 0; }
+    constexpr prm_lock lock_request() const noexcept {
+        if (station_status & prm::unlock_req) return prm_lock::unlock;
+        return (station_status & prm::lock_req) ? prm_lock::lock : prm_lock::overwrite;
+    }
     // WD_Fact_1 × WD_Fact_2 × 10 ms (§B.5; DP-V0: the 1 ms base of DP-V1 is not used).
     constexpr duration watchdog() const noexcept {
         return std::chrono::milliseconds(10) * (unsigned{wd_fact1} * wd_fact2);

@@ -3,12 +3,18 @@
 //
 //   * states Wait_Prm → Wait_Cfg → Data_Exchange (§B.6); FDL_Status, Slave_Diag and Get_Cfg
 //     are answered in every state
-//   * Set_Prm (SAP 61): the ident number must be the slave's, else Prm_Fault and Wait_Prm;
-//     Lock_Req binds the slave to the sending master (Diag.Master_Add), Unlock_Req frees it
-//     and goes back to Wait_Prm; WD_On arms the watchdog (WD_Fact_1 × WD_Fact_2 × 10 ms);
+//   * Set_Prm (SAP 61), as Lock_Req / Unlock_Req say (prm_lock, services.hpp):
+//     - Lock_Req alone: all parameters; the ident number must be the slave's, else Prm_Fault
+//       and Wait_Prm; the slave is locked to the sending master (Diag.Master_Add); WD_On arms
+//       the watchdog (WD_Fact_1 × WD_Fact_2 × 10 ms); then Wait_Cfg
+//     - neither: only min_TSDR and User_Prm_Data are taken; the state, the lock, the
+//       watchdog, the group and Sync/Freeze stay as they were
+//     - Unlock_Req (with or without Lock_Req): released for other masters (Master_Add 0xFF)
+//       and back to Wait_Prm; no parameter is taken
 //     min_TSDR (non-zero) sets the station delay; User_Prm_Data is kept for the application.
 //     A locked slave takes Set_Prm, Chk_Cfg, Data_Exchange and Global_Control only from its
-//     master (others get a short acknowledgement and are not acted upon)
+//     master: others get a short acknowledgement and are not acted upon, and their
+//     Slave_Diag shows the locking master in Master_Add (they set Master_Lock themselves)
 //   * Chk_Cfg (SAP 62): the identifier bytes must equal the slave's configuration, else
 //     Cfg_Fault and Wait_Prm; in Wait_Prm it is acknowledged and not acted upon; Get_Cfg
 //     (SAP 59) answers the configuration
@@ -39,6 +45,7 @@
 #include <cstdint>
 #include <span>
 
+#include "ferrule/core/result.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
@@ -267,34 +274,38 @@ private:
     }
 
     void set_prm(const telegram& t, time_point end) noexcept {
-        if (locked_by_other(t.sa)) return reply_ack(end);
-        const auto p = parse_prm(t.data);
-        const bool unlock = p && (p->station_status & prm::unlock_req) != 0;
-        if (p && unlock) {
-            // Unlock_Req: the slave is free for any master and waits for parameters again.
+        if (!locked_by_other(t.sa)) take_prm(parse_prm(t.data), t.sa);
+        reply_ack(end);
+    }
+
+    void take_prm(const result<prm_data>& p, std::uint8_t sa) noexcept {
+        const prm_lock lock = p ? p->lock_request() : prm_lock::lock;
+        if (lock == prm_lock::unlock) {
             to_wait_prm();
             master_ = diag::no_master;
-            return reply_ack(end);
+            return;
         }
-        const bool fits = p && p->user.size() <= user_prm_.size();
-        if (!p || !fits || p->ident != cfg_.ident ||
-            (p->watchdog_on() && (p->wd_fact1 == 0 || p->wd_fact2 == 0))) {
+        if (!p || p->user.size() > user_prm_.size() ||
+            (lock == prm_lock::lock &&
+             (p->ident != cfg_.ident ||
+              (p->watchdog_on() && (p->wd_fact1 == 0 || p->wd_fact2 == 0))))) {
             ++stats_.prm_faults;
             prm_fault_ = true;
             to_wait_prm();
-            return reply_ack(end);
+            return;
         }
-        prm_fault_ = false;
-        if (p->station_status & prm::lock_req) master_ = t.sa;
-        watchdog_on_ = p->watchdog_on();
-        watchdog_ = p->watchdog();
+        // Without Lock_Req only these two may be overwritten.
         if (p->min_tsdr != 0) min_tsdr_ = p->min_tsdr;
-        group_ = p->group;
         std::copy(p->user.begin(), p->user.end(), user_prm_.begin());
         user_prm_size_ = p->user.size();
+        if (lock == prm_lock::overwrite) return;
+        prm_fault_ = false;
+        master_ = sa;
+        watchdog_on_ = p->watchdog_on();
+        watchdog_ = p->watchdog();
+        group_ = p->group;
         if (state_ == slave_state::data_exchange) zero_outputs();
         state_ = slave_state::wait_cfg;
-        reply_ack(end);
     }
 
     void chk_cfg(const telegram& t, time_point end) noexcept {

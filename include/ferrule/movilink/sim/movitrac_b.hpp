@@ -13,6 +13,7 @@
 //   motor model        the speed follows the setpoint linearly: ramp_reference_rpm per ramp
 //                      time; stop ramps down with the PO ramp, rapid stop with a short ramp,
 //                      controller inhibit, no hardware enable and faults drop the speed to 0
+//   warnings           bit 5 with the drive still ready and running (§3.3: ready 1 / fault 1)
 //
 // The motor, current and identification values are a model, not measurements.
 #pragma once
@@ -161,6 +162,11 @@ public:
         if (number != 0) trip_fault(number);
     }
 
+    // A warning: bit 5 and the number in status word 1 while the drive stays ready and keeps
+    // running (movilink.md §3.3: ready 1 / fault 1 = warning). A fault takes precedence;
+    // cleared like a fault by a reset edge. Number 1-255.
+    void inject_warning(std::uint8_t number) noexcept { warning_ = number; }
+
     // RAM values back from EEPROM (live and RAM-only values to their defaults), motor
     // stopped, no fault, process data and handshake state cleared.
     void power_cycle() noexcept {
@@ -207,12 +213,14 @@ public:
                (speed_ != target_rpm() ? cfg_.acceleration_current_percent : 0);
     }
     std::uint8_t fault_number() const noexcept { return fault_; }
+    std::uint8_t warning_number() const noexcept { return warning_; }
     control_word control() const noexcept { return cw_; }
     status_word status() const noexcept {
         const bool fault = fault_ != 0;
+        const std::uint8_t pending = fault ? fault_ : warning_;
         return status_word::make(output_stage_on(), !fault,
-                                 value_of(parameter_index::p876_po_data_enable) != 0, fault,
-                                 fault ? fault_ : unit_status());
+                                 value_of(parameter_index::p876_po_data_enable) != 0, pending != 0,
+                                 pending != 0 ? pending : unit_status());
     }
     // Parameter services carried out (handshake repeats and "no service" not counted).
     std::uint32_t services_executed() const noexcept { return services_; }
@@ -317,7 +325,7 @@ private:
             }
         }
         // Reset acts on the 0 -> 1 edge of bit 6 [UNCERTAIN, movilink.md §8.6].
-        if (cw.reset() && !cw_.reset()) fault_ = 0;
+        if (cw.reset() && !cw_.reset()) fault_ = warning_ = 0;
         cw_ = cw;
         setpoint_ = std::clamp(setpoint, -cfg_.max_speed_rpm, cfg_.max_speed_rpm);
         ramp_ = ramp;
@@ -496,6 +504,7 @@ private:
     duration ramp_{};
     control_word cw_{};
     std::uint8_t fault_ = 0;
+    std::uint8_t warning_ = 0;
     std::array<std::uint16_t, max_pd_words> po_{};
     std::array<std::uint16_t, max_pd_words> pi_{};
     bool cyclic_seen_ = false;
