@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../core/failure_sweep.hpp"
+#include "ferrule/core/driver.hpp"
 #include "ferrule/profibus/access.hpp"
 #include "ferrule/profibus/cycle.hpp"
 #include "ferrule/profibus/sim/bus.hpp"
@@ -116,6 +117,8 @@ struct cycle_rig {
     master m;
     io in = untouched;
     std::array<cycle_slave, 1> slaves{};
+    cycle c{m, slaves};
+    ferrule::poll_driver<mock_serial, cycle> driver{line, c};
     cycle_rig() {
         bus.add(slave_8())->set_inputs(slave_inputs);
         slaves[0] = {.address = 8,
@@ -125,9 +128,17 @@ struct cycle_rig {
                      .inputs = in};
         REQUIRE(pass() == 1); // brought up and exchanging
     }
+    // Steps the driver, 100 us of virtual time apart, until the pass under way ends; the
+    // Data_Exchanges it carried.
     std::size_t pass() {
         in = untouched;
-        return run_cycle(line, m, slaves);
+        const std::uint32_t passes = c.passes();
+        for (int i = 0; i < 100'000 && c.passes() == passes; ++i) {
+            driver.step();
+            line.advance(100us);
+        }
+        REQUIRE(c.passes() == passes + 1);
+        return c.last_pass_exchanges();
     }
 };
 
@@ -144,12 +155,14 @@ TEST_CASE("profibus cycle failure sweep", "[profibus][cycle][sweep]") {
             CHECK(s.exchanges == 1);   // the rig's pass only
             CHECK_FALSE(s.exchanging); // brought up again in the next pass
             CHECK(r.in == untouched);
+            CHECK(r.c.error() == injected);
         },
         [](cycle_rig& r, std::size_t exchanged) {
             CHECK(exchanged == 1);
             CHECK(r.slaves[0].exchanging);
             CHECK(r.in == slave_inputs);
-        });
+        },
+        1);
 }
 
 namespace {
