@@ -1,6 +1,7 @@
 #include <catch2/catch.hpp>
 
 #include <array>
+#include <system_error>
 
 #include "ferrule/sim/mock_serial.hpp"
 
@@ -72,12 +73,102 @@ TEST_CASE("mock_serial discard_input drops only bytes that have arrived", "[core
     CHECK(line.pending() == 1);
 }
 
-TEST_CASE("mock_serial injects write failures", "[core][mock_serial]") {
+TEST_CASE("mock_serial fails the n-th I/O operation once, writes and reads alike",
+          "[core][mock_serial]") {
+    const std::error_code injected = std::make_error_code(std::errc::io_error);
     mock_serial line(f8e1);
-    line.fail_next_writes(1);
     const std::array<std::uint8_t, 1> out{1};
+    std::array<std::uint8_t, 4> in{};
+    line.fail_at(3, injected);
+    CHECK_FALSE(line.write(out).ec);                                          // 1
+    CHECK(line.read_some(in, line.now() + 1ms).ec == ferrule::errc::timeout); // 2
+    const auto t = line.now();
+    const auto failed = line.write(out); // 3
+    CHECK(failed.ec == injected);
+    CHECK(failed.bytes == 0);
+    CHECK(line.now() == t);         // a failed write takes no wire time ...
+    CHECK(line.wire().size() == 1); // ... and puts nothing on the line
+    CHECK(line.writes() == 1);
+    CHECK_FALSE(line.write(out).ec); // 4: once only
+    CHECK(line.io_operations() == 4);
+}
+
+TEST_CASE("mock_serial: a failed read takes no byte and moves no clock", "[core][mock_serial]") {
+    mock_serial line(f8e1);
+    const std::array<std::uint8_t, 2> bytes{0x11, 0x22};
+    line.inject(bytes, line.now());
+    line.advance(1s);
+    line.fail_at(1);
+    std::array<std::uint8_t, 4> in{};
+    const auto t = line.now();
+    const auto failed = line.read_some(in, t + 1s);
+    CHECK(failed.ec == ferrule::errc::transport); // the default error
+    CHECK(failed.bytes == 0);
+    CHECK(line.now() == t);
+    CHECK(line.pending() == 2);
+    const auto r = line.read_some(in, t + 1s);
+    REQUIRE(r.bytes == 2);
+    CHECK(in[0] == 0x11);
+}
+
+TEST_CASE("mock_serial fail_at(0) fails nothing and a new count replaces the old",
+          "[core][mock_serial]") {
+    mock_serial line(f8e1);
+    const std::array<std::uint8_t, 1> out{1};
+    line.fail_at(2);
+    line.fail_at(0);
+    for (int i = 0; i < 4; ++i) CHECK_FALSE(line.write(out).ec);
+    line.fail_at(5);
+    line.fail_at(1);
     CHECK(line.write(out).ec == ferrule::errc::transport);
-    CHECK_FALSE(line.write(out).ec);
+    for (int i = 0; i < 5; ++i) CHECK_FALSE(line.write(out).ec);
+    CHECK(line.io_operations() == 10);
+}
+
+TEST_CASE("mock_serial end of stream: bytes on their way, then an error at once",
+          "[core][mock_serial]") {
+    const std::array<std::uint8_t, 1> req{0x10};
+    const std::array<std::uint8_t, 2> rsp{0xA0, 0xA1};
+    std::array<ferrule::script_step, 2> steps{};
+    steps[0].reply = rsp;
+    steps[1].reply = rsp;
+    ferrule::script_peer peer(steps);
+    mock_serial line(f8e1, &peer);
+    line.write(req); // the reply is on its way when the far end closes
+    line.end_of_stream();
+    std::array<std::uint8_t, 4> in{};
+    std::size_t got = 0;
+    while (got < rsp.size()) {
+        const auto r = line.read_some(in, line.now() + 1s);
+        REQUIRE_FALSE(r.ec);
+        got += r.bytes;
+    }
+    const auto t = line.now();
+    auto r = line.read_some(in, t + 1s);
+    CHECK(r.ec == ferrule::errc::transport);
+    CHECK(r.bytes == 0);
+    CHECK(line.now() == t); // no wait for the deadline
+    CHECK_FALSE(line.write(req).ec);
+    CHECK(peer.steps_done() == 1); // nobody heard the write
+    line.end_of_stream(false);
+    r = line.read_some(in, line.now() + 1s);
+    CHECK(r.ec == ferrule::errc::timeout);
+}
+
+TEST_CASE("mock_serial: a silent peer hears the request and the read times out",
+          "[core][mock_serial]") {
+    const std::array<std::uint8_t, 2> req{0x10, 0x20};
+    const std::array<ferrule::script_step, 1> steps{ferrule::script_step{req}};
+    ferrule::script_peer peer(steps);
+    mock_serial line(f8e1, &peer);
+    REQUIRE_FALSE(line.write(req).ec);
+    std::array<std::uint8_t, 4> in{};
+    const auto t = line.now();
+    const auto r = line.read_some(in, t + 100ms);
+    CHECK(r.ec == ferrule::errc::timeout);
+    CHECK(line.now() == t + 100ms);
+    CHECK(peer.finished());
+    CHECK(peer.mismatches() == 0);
 }
 
 TEST_CASE("script_peer answers after its delay, in chunks, with faults", "[core][mock_serial]") {

@@ -7,9 +7,9 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/dimetix/access.hpp"
 #include "ferrule/dimetix/sensor.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace std::chrono_literals;
 using namespace ferrule::dimetix;
@@ -392,9 +392,10 @@ TEST_CASE("stale input is dropped before a command", "[dimetix][sensor]") {
 
 TEST_CASE("a transport error ends the command with it", "[dimetix][sensor]") {
     mock_serial line(default_format);
-    line.fail_next_writes(1);
+    line.fail_at(1); // the command's write
     sensor s;
     CHECK(measure(line, s, 0).error() == errc::transport);
+    CHECK(line.writes() == 0);
     CHECK_FALSE(s.busy());
     CHECK(s.start(distance(0)) == std::error_code{});
 }

@@ -5,9 +5,9 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/lecom/access.hpp"
 #include "ferrule/lecom/master.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace std::chrono_literals;
 using namespace ferrule::lecom;
@@ -485,9 +485,10 @@ TEST_CASE("extended addressing reads with !CCCCSS and checks its echo", "[lecom]
 
 TEST_CASE("a transport error ends the LECOM transaction", "[lecom][master]") {
     mock_serial line(fmt);
-    line.fail_next_writes(1);
+    line.fail_at(1); // the request's write
     master m;
     CHECK(read(line, m, 1, code(46)).error() == errc::transport);
+    CHECK(line.writes() == 0);
     CHECK(m.error() == errc::transport);
     CHECK_FALSE(m.busy());
     CHECK(m.stats().failed == 1);

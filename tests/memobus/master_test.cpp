@@ -11,10 +11,10 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/memobus/access.hpp"
 #include "ferrule/memobus/master.hpp"
 #include "ferrule/memobus/message.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace std::chrono_literals;
 using namespace ferrule::memobus;
@@ -538,8 +538,9 @@ TEST_CASE("memobus master: busy, bad requests and transport errors", "[memobus][
 
     controller plc;
     mock_serial line(fast, &plc);
-    line.fail_next_writes(1);
+    line.fail_at(1); // the request's write
     CHECK(ferrule::run(line, m) == errc::transport);
+    CHECK(line.writes() == 0);
     CHECK(m.error() == errc::transport);
     CHECK(m.stats().failed == 1);
     CHECK_FALSE(m.busy());

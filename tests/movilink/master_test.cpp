@@ -5,10 +5,10 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/movilink/access.hpp"
 #include "ferrule/movilink/cyclic.hpp"
 #include "ferrule/movilink/master.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace std::chrono_literals;
 using namespace ferrule::movilink;
@@ -539,10 +539,11 @@ TEST_CASE("start() refuses what cannot be sent", "[movilink][master]") {
 
 TEST_CASE("a transport error ends the transaction", "[movilink][master]") {
     mock_serial line(fmt);
-    line.fail_next_writes(1);
+    line.fail_at(2); // the request's write: operation 1 waits out the start pause
     master m;
     REQUIRE_FALSE(m.start_exchange(1, pdu_type::pd3_acyclic, m2_po));
     CHECK(ferrule::run(line, m) == errc::transport);
+    CHECK(line.writes() == 0);
     CHECK(m.error() == errc::transport);
     CHECK_FALSE(m.busy());
 }

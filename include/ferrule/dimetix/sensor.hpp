@@ -135,7 +135,9 @@ public:
     }
 
     void on_transport_error(std::error_code ec) noexcept {
-        if (busy()) finish(ec);
+        if (!busy()) return;
+        ++stats_.failed;
+        finish(ec);
     }
 
     // Outcome of the finished command: empty, a ferrule::errc, or a device error

@@ -20,7 +20,7 @@ public:
     // `words` PD words per cycle (1-3); `acyclic_types` selects TYP 0x8x, which the drive does
     // not watch with its RS-485 timeout (SC01 p.17): cyclic types are the safe default.
     constexpr cyclic(master& m, std::uint8_t address, std::size_t words = 3,
-           bool acyclic_types = false) noexcept
+                     bool acyclic_types = false) noexcept
         : m_(m), address_(address), words_(words), acyclic_(acyclic_types) {}
 
     // The words sent from the next cycle on.
@@ -68,10 +68,8 @@ public:
     void on_receive(std::span<const std::uint8_t> in, time_point now) noexcept {
         m_.on_receive(in, now);
     }
-    void on_transport_error(std::error_code ec) noexcept {
-        m_.on_transport_error(ec);
-        last_error_ = ec;
-    }
+    // The cycle ends with `ec`; error() says so once it is counted, at the next next().
+    void on_transport_error(std::error_code ec) noexcept { m_.on_transport_error(ec); }
 
 private:
     enum class param_state : std::uint8_t { none, queued, running, finished };

@@ -130,7 +130,9 @@ public:
     }
 
     void on_transport_error(std::error_code ec) noexcept {
-        if (state_ == state::pending_send || state_ == state::awaiting_reply) finish(ec);
+        if (!busy()) return;
+        ++stats_.failed;
+        finish(ec);
     }
 
     // Outcome of the finished transaction: empty on success; errc::no_response_expected

@@ -3,8 +3,10 @@
 // The line runs at a configured serial_format: every byte takes its wire time, a write
 // returns when its last byte has left (like write + tcdrain), and read_some() moves the
 // clock to the next arriving byte or to the deadline, so a 5 s timeout costs no real time.
-// The far end is a mock_peer: scripted (script_peer) or a simulated device. Every byte on
-// the line is recorded with its start and end time so tests can assert gaps exactly.
+// The far end is a mock_peer: scripted (script_peer) or a simulated device; with no peer the
+// far end is silent (it hears everything and never answers). Every byte on the line is
+// recorded with its start and end time so tests can assert gaps exactly. Faults: any one
+// I/O operation can be made to fail (fail_at), and the far end can close (end_of_stream).
 // Fixed capacity, no heap: usable in firmware-style tests too.
 #pragma once
 
@@ -63,11 +65,8 @@ public:
     time_point now() const noexcept { return now_; }
 
     io_result write(std::span<const std::uint8_t> out) {
+        if (const std::error_code ec = count_operation()) return {0, ec};
         process_wakes(now_);
-        if (fail_writes_ > 0) {
-            --fail_writes_;
-            return {0, make_error_code(errc::transport)};
-        }
         if (rx_line_free_ > now_) ++collisions_;
         const time_point start = now_;
         for (std::size_t i = 0; i < out.size(); ++i)
@@ -75,11 +74,12 @@ public:
                 wire_byte::from::session);
         now_ = start + fmt_.chars_time(out.size());
         ++writes_;
-        if (peer_ && !out.empty()) peer_->on_receive(*this, out, now_);
+        if (peer_ && !out.empty() && !closed_) peer_->on_receive(*this, out, now_);
         return {out.size(), {}};
     }
 
     io_result read_some(std::span<std::uint8_t> in, time_point deadline) {
+        if (const std::error_code ec = count_operation()) return {0, ec};
         if (in.empty()) return {0, {}};
         for (;;) {
             process_wakes(now_);
@@ -92,8 +92,9 @@ public:
                 }
                 return {n, {}};
             }
+            if (closed_ && rx_size_ == 0) return {0, make_error_code(errc::transport)};
             time_point next = rx_size_ > 0 ? rx_[rx_head_].arrival : never;
-            if (peer_) next = std::min(next, peer_->wake_at());
+            if (peer_ && !closed_) next = std::min(next, peer_->wake_at());
             if (next > deadline) {
                 if (deadline > now_) now_ = deadline;
                 return {0, make_error_code(errc::timeout)};
@@ -141,8 +142,18 @@ public:
         }
         if (t > now_) now_ = t;
     }
-    // The next n writes fail with errc::transport (like Beast's test::stream fail_count).
-    void fail_next_writes(unsigned n) noexcept { fail_writes_ = n; }
+    // The n-th I/O operation from now (write or read_some; 1: the next one) fails with `ec`
+    // and does nothing else: no byte leaves or is taken, the clock stays. The operations
+    // after it run normally; 0 fails none. Like Beast's test::stream fail_count, so a test
+    // can count a transaction's operations (io_operations()) and fail each one in turn.
+    void fail_at(std::size_t n, std::error_code ec = make_error_code(errc::transport)) noexcept {
+        fail_countdown_ = n;
+        fail_ec_ = ec;
+    }
+    // The far end closes (or opens again with false). Bytes already on their way are still
+    // read; then read_some returns errc::transport at once, as a read of a closed port or
+    // socket ends without waiting. Writes still leave, and the peer hears none of them.
+    void end_of_stream(bool closed = true) noexcept { closed_ = closed; }
     // Deliver at most n bytes per read_some (0: as many as have arrived).
     void set_read_size(std::size_t n) noexcept { read_size_ = n; }
 
@@ -156,6 +167,8 @@ public:
     std::size_t discarded() const noexcept { return discarded_; }
     std::size_t collisions() const noexcept { return collisions_; }
     std::size_t writes() const noexcept { return writes_; }
+    // write and read_some calls so far, failed ones included.
+    std::size_t io_operations() const noexcept { return operations_; }
     std::size_t log_overflowed() const noexcept { return log_dropped_; }
     std::size_t rx_overflowed() const noexcept { return overflowed_; }
     void clear_wire_log() noexcept { log_size_ = 0; }
@@ -166,6 +179,11 @@ private:
         std::uint8_t value;
     };
 
+    std::error_code count_operation() noexcept {
+        ++operations_;
+        if (fail_countdown_ == 0 || --fail_countdown_ > 0) return {};
+        return fail_ec_;
+    }
     void process_wakes(time_point t) {
         while (peer_ && peer_->wake_at() <= t)
             peer_->on_wake(*this, std::max(peer_->wake_at(), now_));
@@ -196,7 +214,10 @@ private:
     std::size_t collisions_ = 0;
     std::size_t writes_ = 0;
     std::size_t read_size_ = 0;
-    unsigned fail_writes_ = 0;
+    std::size_t operations_ = 0;
+    std::size_t fail_countdown_ = 0;
+    std::error_code fail_ec_{};
+    bool closed_ = false;
 };
 
 static_assert(session_stream<mock_serial>);

@@ -12,11 +12,12 @@
 #include <cstdint>
 #include <span>
 
-#include "ferrule/sim/mock_serial.hpp"
+#include "ferrule/core/error.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
 #include "ferrule/gateway/gateway.hpp"
 #include "ferrule/modbus/sim/bus.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 namespace ferrule::gateway::sim {
 
@@ -76,6 +77,15 @@ private:
                 continue;
             }
             if (a.what != session_action::kind::wait) {
+                // Bytes that come while no reply is awaited (a late one) still reach the
+                // gateway, as from any driver: left on the line, they would wake the rig
+                // again and again.
+                if (!before(until, drive_line_.next_arrival())) {
+                    const io_result r = drive_line_.read_some(buf, until);
+                    if (r.bytes > 0)
+                        core_.on_modbus_receive({buf.data(), r.bytes}, drive_line_.now());
+                    continue;
+                }
                 drive_line_.sleep_until(until);
                 drive_wake_ = std::min(drives_.wake_at(), drive_line_.next_arrival());
                 return;
@@ -87,7 +97,10 @@ private:
                 return;
             }
             const io_result r = drive_line_.read_some(buf, std::min(a.deadline, until));
-            if (r.bytes > 0) core_.on_modbus_receive({buf.data(), r.bytes}, drive_line_.now());
+            if (r.bytes > 0)
+                core_.on_modbus_receive({buf.data(), r.bytes}, drive_line_.now());
+            else if (r.ec && r.ec != make_error_code(errc::timeout))
+                core_.on_modbus_error(r.ec); // as host::serve_gateway does
         }
     }
 
