@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
+#include "ferrule/core/queued_reply.hpp"
+#include "ferrule/core/static_buffer.hpp"
 #include "ferrule/core/station.hpp"
 #include "ferrule/dimetix/sim/sensor.hpp"
 #include "ferrule/lecom/poller.hpp"
@@ -126,4 +128,49 @@ TEST_CASE("station_driver: a write that fails is the step's error, the next requ
     line.sleep_until(slave.wake_at());
     CHECK_FALSE(driver.step());
     CHECK(sent_by_station(line) == reply_c46_35_4);
+}
+
+TEST_CASE("queued_reply: waits for its time, goes out once, or is dropped",
+          "[core][station][queued_reply]") {
+    queued_reply<4> reply;
+    CHECK(reply.next(time_point{}).what == session_action::kind::idle);
+    CHECK(reply.due() == never);
+    reply.buffer()[0] = 0xAA;
+    reply.buffer()[1] = 0xBB;
+    const time_point due = time_point{} + 20ms;
+    reply.queue(2, due);
+    CHECK(reply.due() == due);
+    const session_action early = reply.next(due - 1ms);
+    CHECK(early.what == session_action::kind::wait);
+    CHECK(early.deadline == due);
+    const session_action a = reply.next(due);
+    REQUIRE(a.what == session_action::kind::send);
+    CHECK(byte_vector(a.bytes.begin(), a.bytes.end()) == byte_vector{0xAA, 0xBB});
+    CHECK_FALSE(a.discard_input);
+    CHECK(reply.next(due).what == session_action::kind::idle);
+
+    reply.queue(1, due);
+    reply.drop();
+    CHECK(reply.due() == never);
+    CHECK(reply.next(due + 1s).what == session_action::kind::idle);
+}
+
+TEST_CASE("held_bytes: keeps what fits with the latest end, hands it over once",
+          "[core][station][held_bytes]") {
+    held_bytes<4> held;
+    CHECK(held.empty());
+    const byte_vector first{1, 2, 3};
+    const byte_vector second{4, 5, 6};
+    CHECK(held.hold(first, time_point{} + 1ms) == 0);
+    CHECK(held.hold(second, time_point{} + 2ms) == 2); // 5 and 6 do not fit
+    CHECK(held.end() == time_point{} + 2ms);
+    byte_vector released;
+    time_point end{};
+    held.release([&](std::span<const std::uint8_t> in, time_point t) {
+        released.assign(in.begin(), in.end());
+        end = t;
+    });
+    CHECK(released == byte_vector{1, 2, 3, 4});
+    CHECK(end == time_point{} + 2ms);
+    CHECK(held.empty());
 }
