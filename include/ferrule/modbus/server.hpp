@@ -523,7 +523,7 @@ private:
     std::array<std::uint8_t, max_tcp_adu> tx_{};
     std::size_t tx_size_ = 0;
     std::uint8_t tx_exception_ = 0;
-    held_bytes<held_capacity> held_{};
+    held_bytes<Link == link_mode::rtu ? 0 : held_capacity> held_{}; // TCP only
 };
 
 } // namespace ferrule::modbus
