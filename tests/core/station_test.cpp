@@ -174,3 +174,19 @@ TEST_CASE("held_bytes: keeps what fits with the latest end, hands it over once",
     CHECK(end == time_point{} + 2ms);
     CHECK(held.empty());
 }
+
+TEST_CASE("queued_reply: a slave's next() is done while the application has a request",
+          "[core][station][queued_reply]") {
+    queued_reply<2> reply;
+    std::uint32_t replies = 0;
+    const time_point due = time_point{} + 5ms;
+    reply.queue(1, due);
+    CHECK(reply.next(due, true, replies).what == session_action::kind::done);
+    CHECK(reply.queued());
+    CHECK(reply.next(due - 1ms, false, replies).what == session_action::kind::wait);
+    CHECK(replies == 0);
+    CHECK(reply.next(due, false, replies).what == session_action::kind::send);
+    CHECK(replies == 1);
+    CHECK(reply.next(due, false, replies).what == session_action::kind::idle);
+    CHECK(replies == 1);
+}

@@ -26,18 +26,20 @@ time_point at(duration d) {
     return time_point{} + d;
 }
 
-// SFC 03: read `count` hold registers from MW`address`, with serial number `serial`.
-octets read_mw(std::uint16_t address, std::uint16_t count, std::uint8_t serial) {
-    request r;
-    r.function = sfc::read_holding_registers;
-    r.cpu = 0x21;
-    r.address = address;
-    r.count = count;
+// A command of SFC `f` with serial number `serial`.
+octets command(sfc f, std::uint16_t address, std::uint16_t count, std::uint8_t serial,
+               std::uint16_t value = 0) {
+    const request r{.function = f, .cpu = 0x21, .address = address, .count = count, .value = value};
     octets out(max_message);
     const auto n = encode_command(r, serial, out);
     REQUIRE(n);
     out.resize(*n);
     return out;
+}
+
+// SFC 03: read `count` hold registers from MW`address`.
+octets read_mw(std::uint16_t address, std::uint16_t count, std::uint8_t serial) {
+    return command(sfc::read_holding_registers, address, count, serial);
 }
 
 // What memobus::server alone answers to `message` on `image`.
@@ -160,16 +162,7 @@ TEST_CASE("memobus server_session: writes reach the image the session was given"
           "[memobus][server_session]") {
     image_type image;
     server_session s(image);
-    request r;
-    r.function = sfc::write_holding_register;
-    r.cpu = 0x21;
-    r.address = 20;
-    r.count = 1;
-    r.value = 0xBEEF;
-    octets message(max_message);
-    const auto n = encode_command(r, 1, message);
-    REQUIRE(n);
-    message.resize(*n);
+    const octets message = command(sfc::write_holding_register, 20, 1, 1, 0xBEEF);
     s.on_receive(message, at(1ms));
     CHECK(replies(s, at(1ms)).size() == 1);
     CHECK(image.mw(20) == 0xBEEF);

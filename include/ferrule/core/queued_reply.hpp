@@ -40,6 +40,16 @@ public:
         return session_action::send({tx_.data(), size_}, false);
     }
 
+    // next() of a slave with the application in the loop: done while a request waits for
+    // the application (`request_waits`), else next(now); a reply handed out is counted in
+    // `replies`.
+    session_action next(time_point now, bool request_waits, std::uint32_t& replies) noexcept {
+        if (request_waits) return session_action::done();
+        const session_action a = next(now);
+        if (a.what == session_action::kind::send) ++replies;
+        return a;
+    }
+
 private:
     std::array<std::uint8_t, Capacity> tx_{};
     std::size_t size_ = 0;

@@ -142,10 +142,7 @@ public:
     // idle: listening; done: a request waits for respond() / consume(); wait: a reply is
     // queued for the deadline; send: put these bytes on the line now.
     session_action next(time_point now) noexcept {
-        if (request_pending_) return session_action::done();
-        const session_action a = reply_.next(now);
-        if (a.what == session_action::kind::send) ++stats_.replies;
-        return a;
+        return reply_.next(now, request_pending_, stats_.replies);
     }
 
     // When the queued reply is due; `never` when none is queued (a pending request waits for
