@@ -39,7 +39,7 @@ namespace {
 using namespace ferrule;
 using namespace ferrule::profibus;
 
-constexpr std::uint8_t station = 8;
+constexpr std::uint8_t slave_address = 8;
 constexpr std::uint16_t ident = 0x0815;
 constexpr std::array<std::uint8_t, 2> cfg_bytes{0x11, 0x21};
 
@@ -110,7 +110,7 @@ struct harness {
         const telegram& t = f.t;
         facts.diag_last = false;
         if (t.frame == frame::sd4 || t.frame == frame::short_ack || !t.is_request()) return;
-        if (t.da != station && t.da != broadcast_address) return;
+        if (t.da != slave_address && t.da != broadcast_address) return;
         facts.ours = true;
         pending = false; // the master has moved on
         const auto fn = static_cast<request_fn>(t.function());
@@ -236,7 +236,7 @@ struct harness {
         switch (in.ConsumeIntegralInRange<unsigned>(0, 5)) {
         case 0: return broadcast_address;
         case 1: return in.ConsumeIntegralInRange<std::uint8_t>(0, 127);
-        default: return station;
+        default: return slave_address;
         }
     }
 
@@ -408,7 +408,7 @@ struct harness {
         const telegram& r = d.telegram();
         FERRULE_CHECK(r.frame != frame::sd4);
         if (r.frame != frame::short_ack) {
-            FERRULE_CHECK(r.da == reply_sa && r.sa == station && !r.is_request());
+            FERRULE_CHECK(r.da == reply_sa && r.sa == slave_address && !r.is_request());
             FERRULE_CHECK((r.fc & 0x30) == station_slave);
             // A repeat carries the stored reply, whatever SAPs the retry names.
             if (!reply_repeat && (r.dsap != no_sap || r.ssap != no_sap))
@@ -513,7 +513,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     slave_config cfg;
     constexpr std::uint32_t bauds[] = {19'200, 9'600, 187'500, 1'500'000};
     cfg.baud = bauds[in.ConsumeIntegralInRange<std::size_t>(0, 3)];
-    cfg.address = station;
+    cfg.address = slave_address;
     cfg.ident = ident;
     cfg.cfg = cfg_bytes;
     cfg.sd2_for_8_bytes = in.ConsumeBool();

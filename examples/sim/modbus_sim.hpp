@@ -8,8 +8,9 @@
 #include <span>
 #include <string_view>
 
-#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/station.hpp"
+#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/modbus/data_model.hpp"
 #include "ferrule/modbus/sim/station.hpp"
 
@@ -33,7 +34,12 @@ struct locked_station {
         const std::lock_guard guard(*lock);
         return station.next(now);
     }
+    time_point wake_at() const {
+        const std::lock_guard guard(*lock);
+        return station.wake_at();
+    }
 };
+static_assert(station<locked_station>);
 
 // One station's drive as the TCP server's data model: the speed model runs up to each
 // request, as the station's does on the pty.

@@ -1,8 +1,9 @@
-// The Extended MEMOBUS controller side, memobus::server on a register_image, never
-// allocates: every SFC it serves, its error responses 01 / 02 / 03 (unknown SFC and MFC,
-// addresses beyond the image, counts and lengths out of limits, writes outside the write
-// range) and the messages it does not answer, in both data orders and with area offsets,
-// with the counting global operator new of counting_new.hpp, and the count must not move.
+// The Extended MEMOBUS controller side, memobus::server on a register_image (and
+// memobus::server_session framing a TCP stream for it), never allocates: every SFC it serves, its
+// error responses 01 / 02 / 03 (unknown SFC and MFC, addresses beyond the image, counts and lengths
+// out of limits, writes outside the write range) and the messages it does not answer, in both data
+// orders and with area offsets, with the counting global operator new of counting_new.hpp, and the
+// count must not move.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -18,6 +19,7 @@
 #include "ferrule/memobus/message.hpp"
 #include "ferrule/memobus/register_image.hpp"
 #include "ferrule/memobus/server.hpp"
+#include "ferrule/memobus/server_session.hpp"
 
 // The counter of counting_new.hpp, whose operator new may be defined in one file only
 // (no_heap_test.cpp): an inline variable, so this identical declaration names the same one.
@@ -194,4 +196,43 @@ TEST_CASE("the memobus server allocates nothing", "[alloc][memobus]") {
     CHECK(image->mw(16 + 200) == 0x1234);
     CHECK(image->mw(16 + 20) == 0x2222);
     CHECK(image->mb(16 * 4 + 1600));
+}
+
+TEST_CASE("the memobus server session allocates nothing, framing a TCP stream in pieces",
+          "[alloc][memobus]") {
+    auto image = std::make_unique<image_type>();
+    channel_config cfg;
+    cfg.write_high = 1023;
+    expected_counts counts;
+    const std::vector<octets> messages_ = messages(data_order::big_endian, counts);
+    // Whole messages only: in a stream, half a message takes the bytes behind it as its rest.
+    octets stream;
+    std::size_t whole = 0;
+    for (const auto& msg : messages_) {
+        if (!parse_message(msg)) continue;
+        stream.insert(stream.end(), msg.begin(), msg.end());
+        ++whole;
+    }
+    const std::size_t unanswered = counts.unanswered - (messages_.size() - whole);
+    auto session = std::make_unique<server_session>(*image, cfg);
+
+    constexpr int rounds = 10;
+    constexpr std::size_t piece = 7; // messages split and joined alike
+    std::size_t replies = 0;
+    const ferrule::time_point now{};
+    const auto before = ferrule_test::allocations.load();
+    for (int round = 0; round < rounds; ++round) {
+        for (std::size_t at = 0; at < stream.size(); at += piece) {
+            const auto bytes = std::span<const std::uint8_t>(stream).subspan(
+                at, std::min(piece, stream.size() - at));
+            session->on_receive(bytes, now);
+            while (session->next(now).what == ferrule::session_action::kind::send) ++replies;
+        }
+    }
+    const auto after = ferrule_test::allocations.load();
+    CHECK(after - before == 0);
+    CHECK(session->stats().messages == rounds * whole);
+    CHECK(replies == rounds * (whole - unanswered));
+    CHECK(session->stats().malformed == 0);
+    CHECK(session->stats().overflowed == 0);
 }

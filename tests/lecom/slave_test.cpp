@@ -53,7 +53,7 @@ value parsed_value(const char* text) {
 
 // The reply the slave puts on the line once it is due.
 byte_vector sent(slave& s) {
-    const session_action a = s.next(s.reply_at());
+    const session_action a = s.next(s.wake_at());
     REQUIRE(a.what == session_action::kind::send);
     return bytes_of(a);
 }
@@ -64,7 +64,7 @@ TEST_CASE("lecom slave: a RECEIVE for this drive is answered processing_time aft
           "[lecom][slave]") {
     slave s;
     CHECK(s.next(at(0ms)).what == session_action::kind::idle);
-    CHECK(s.reply_at() == never);
+    CHECK(s.wake_at() == never);
     s.on_receive(read_c46_at_01, at(10ms));
     REQUIRE(s.has_request());
     CHECK(s.request().kind == frame_kind::receive);
@@ -76,7 +76,7 @@ TEST_CASE("lecom slave: a RECEIVE for this drive is answered processing_time aft
 
     REQUIRE_FALSE(s.respond({frame_kind::data, 0, code(46), parsed_value("35.4")}));
     CHECK_FALSE(s.has_request());
-    CHECK(s.reply_at() == at(30ms)); // S3: t3 = 20 ms
+    CHECK(s.wake_at() == at(30ms)); // S3: t3 = 20 ms
     const auto wait = s.next(at(10ms));
     CHECK(wait.what == session_action::kind::wait);
     CHECK(wait.deadline == at(30ms));
@@ -87,7 +87,7 @@ TEST_CASE("lecom slave: a RECEIVE for this drive is answered processing_time aft
     CHECK_FALSE(send.discard_input);
     CHECK(bytes_of(send) == reply_c46_35_4);
     CHECK(s.next(at(30ms)).what == session_action::kind::idle);
-    CHECK(s.reply_at() == never);
+    CHECK(s.wake_at() == never);
     CHECK(s.stats().requests == 1);
     CHECK(s.stats().replies == 1);
 }
@@ -121,7 +121,7 @@ TEST_CASE("lecom slave: processing time is configurable, a late respond() sends 
     s.on_receive(read_c46_at_01, at(0ms));
     REQUIRE(s.has_request());
     REQUIRE_FALSE(s.respond({frame_kind::no_code, 0, code(46), {}}));
-    CHECK(s.reply_at() == at(5ms));
+    CHECK(s.wake_at() == at(5ms));
     const auto a = s.next(at(50ms));
     REQUIRE(a.what == session_action::kind::send);
     CHECK(bytes_of(a) == no_code_c46);
@@ -206,7 +206,7 @@ TEST_CASE("lecom slave: a SEND with a bad BCC is answered NAK by the session", "
         slave s = at_address(34);
         s.on_receive(bad, at(0ms));
         CHECK_FALSE(s.has_request());
-        CHECK(s.reply_at() == at(20ms));
+        CHECK(s.wake_at() == at(20ms));
         CHECK(s.next(at(0ms)).what == session_action::kind::wait);
         CHECK(sent(s) == byte_vector{nak});
         CHECK(s.stats().bad_checksum == 1);
@@ -216,7 +216,7 @@ TEST_CASE("lecom slave: a SEND with a bad BCC is answered NAK by the session", "
     SECTION("another drive: ignored") {
         slave s = at_address(35);
         s.on_receive(bad, at(0ms));
-        CHECK(s.reply_at() == never);
+        CHECK(s.wake_at() == never);
         CHECK(s.stats().ignored_other_address == 1);
         CHECK(s.stats().bad_checksum == 0);
     }
@@ -226,7 +226,7 @@ TEST_CASE("lecom slave: a SEND with a bad BCC is answered NAK by the session", "
         slave s = at_address(34);
         s.on_receive(bad_broadcast, at(0ms));
         CHECK_FALSE(s.has_request());
-        CHECK(s.reply_at() == never);
+        CHECK(s.wake_at() == never);
         CHECK(s.stats().bad_checksum == 1);
     }
 }
@@ -260,7 +260,7 @@ TEST_CASE("lecom slave: what cannot be decoded stays unanswered", "[lecom][slave
         s.on_receive(read_c46_at_01, at(10ms));
         CHECK(s.has_request());
     }
-    CHECK(s.reply_at() == never);
+    CHECK(s.wake_at() == never);
 }
 
 TEST_CASE("lecom slave: a request in pieces ends with its last character", "[lecom][slave]") {
@@ -373,13 +373,13 @@ TEST_CASE("lecom slave: a new telegram before the reply went out drops it", "[le
     REQUIRE_FALSE(s.respond({frame_kind::data, 0, code(46), *decimal(1)}));
     SECTION("the start of a telegram") {
         s.on_receive(byte_vector{eot}, at(5ms));
-        CHECK(s.reply_at() == never);
+        CHECK(s.wake_at() == never);
         CHECK(s.next(at(20ms)).what == session_action::kind::idle);
         CHECK(s.stats().abandoned == 1);
     }
     SECTION("garbage is no telegram") {
         s.on_receive(byte_vector{0x41}, at(5ms));
-        CHECK(s.reply_at() == at(20ms));
+        CHECK(s.wake_at() == at(20ms));
         CHECK(s.stats().abandoned == 0);
     }
 }

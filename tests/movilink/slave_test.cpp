@@ -87,7 +87,7 @@ TEST_CASE("slave: M1 is a request for address 1, the reply waits for the start p
 
     REQUIRE_FALSE(s.respond(reply_to(req, {0x0407, 0, 0x02BC})));
     CHECK_FALSE(s.has_request());
-    CHECK(s.reply_at() == end + start_pause);
+    CHECK(s.wake_at() == end + start_pause);
     const auto wait = s.next(end);
     CHECK(wait.what == session_action::kind::wait);
     CHECK(wait.deadline == end + start_pause); // SC01 p.19: >= 3.44 ms idle before SD2
@@ -99,7 +99,7 @@ TEST_CASE("slave: M1 is a request for address 1, the reply waits for the start p
     CHECK(bytes_of(send) ==
           byte_vector{0x1D, 0x01, 0x05, 0x04, 0x07, 0x00, 0x00, 0x02, 0xBC, 0xA4});
     CHECK(s.next(end + start_pause).what == session_action::kind::idle);
-    CHECK(s.reply_at() == never);
+    CHECK(s.wake_at() == never);
     CHECK(s.stats().requests == 1);
     CHECK(s.stats().replies == 1);
 }
@@ -329,7 +329,7 @@ TEST_CASE("slave: bus activity before the reply drops the request", "[movilink][
         CHECK(s.stats().abandoned == 1);
         REQUIRE(s.has_request());
         CHECK(s.request().type == pdu_type::param_acyclic);
-        CHECK(s.reply_at() == never);
+        CHECK(s.wake_at() == never);
     }
     SECTION("traffic for another unit while the application still decides") {
         const time_point end = feed(s, m1, at(0ms));

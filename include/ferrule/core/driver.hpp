@@ -1,6 +1,7 @@
-// Drivers: bring I/O to any master session, once for all protocols.
-//   run()          blocking: drives one transaction to its end over a byte_stream
-//   poll_driver    non-blocking: one step per call, for super-loops and scan cycles
+// Drivers: bring I/O to any master session or station, once for all protocols.
+//   run()            blocking: drives one transaction to its end over a byte_stream
+//   poll_driver      non-blocking: one step per call, for super-loops and scan cycles
+//   station_driver   non-blocking: one step per call, for a super-loop serving a station
 #pragma once
 
 #include <array>
@@ -10,6 +11,7 @@
 #include "ferrule/core/byte_stream.hpp"
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/station.hpp"
 
 namespace ferrule {
 
@@ -89,6 +91,32 @@ public:
 private:
     S& stream_;
     M& session_;
+    std::array<std::uint8_t, 64> buf_{};
+};
+
+// The device side's poll_driver: each step() hands the station what has arrived (one read
+// that does not wait), then puts on the line what the station has to send now, at most one
+// reply. Returns the transport error of the step, or {}; the station itself never fails.
+// An application-in-the-loop slave is asked between steps (has_request(), respond()).
+template <session_stream S, station St>
+class station_driver {
+public:
+    station_driver(S& stream, St& station) noexcept : stream_(stream), station_(station) {}
+
+    std::error_code step() {
+        const io_result r = stream_.read_some(buf_, stream_.now());
+        if (r.bytes > 0)
+            station_.on_receive(std::span<const std::uint8_t>(buf_.data(), r.bytes), stream_.now());
+        else if (r.ec && r.ec != make_error_code(errc::timeout))
+            return r.ec;
+        const session_action a = station_.next(stream_.now());
+        if (a.what != session_action::kind::send) return {};
+        return stream_.write(a.bytes).ec;
+    }
+
+private:
+    S& stream_;
+    St& station_;
     std::array<std::uint8_t, 64> buf_{};
 };
 

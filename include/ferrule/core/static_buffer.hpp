@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <span>
 
+#include "ferrule/core/time.hpp"
+
 namespace ferrule {
 
 template <std::size_t Capacity>
@@ -57,6 +59,32 @@ public:
 private:
     std::array<std::uint8_t, Capacity> data_{};
     std::size_t size_ = 0;
+};
+
+// Bytes a station has heard behind a request it has not answered yet, kept with the time the
+// last of them ended, to be framed once the request is done with.
+template <std::size_t Capacity>
+class held_bytes {
+public:
+    bool empty() const noexcept { return bytes_.empty(); }
+    // When the last byte held ended.
+    time_point end() const noexcept { return end_; }
+    // Keeps `in`, which ended at `at`; returns how many bytes did not fit (and are lost).
+    std::size_t hold(std::span<const std::uint8_t> in, time_point at) noexcept {
+        end_ = at;
+        return in.size() - bytes_.append(in);
+    }
+    // Hands every held byte to feed(bytes, end), which may hold some again.
+    template <class Feed>
+    void release(Feed&& feed) noexcept {
+        const static_buffer<Capacity> rest = bytes_;
+        bytes_.clear();
+        feed(rest.view(), end_);
+    }
+
+private:
+    static_buffer<Capacity> bytes_{};
+    time_point end_{};
 };
 
 } // namespace ferrule

@@ -4,16 +4,16 @@
 // MSG-RCV each (seeds/004; protocols/memobus.md §6, §10.4).
 //
 //   * a channel is one TCP connection or one UDP master (an IP address, below), with its own
-//     memobus::server session and so its own channel_config (offsets, write range): channel i
+//     memobus::server_session and so its own channel_config (offsets, write range): channel i
 //     takes options.channels[i], or options.channel when there is none; a new connection or
 //     UDP master takes the lowest free channel
 //   * at most `max_channels` at once, TCP and UDP together (218IFA: 4, 218IF: 10, seeds/004;
 //     MotionAPI: 20, §6, §11.4): a TCP connection beyond it is accepted and closed at once
 //     and counted as refused; a command from a UDP master beyond it is refused (below)
-//   * TCP: message_decoder per connection (§2), so a master that sends garbage, half a
-//     header or a header announcing 65535 bytes disturbs only its own channel: its decoder
-//     resynchronises (max_message bounds what it waits for) or waits while the others are
-//     served. Requests are answered in order, pipelined ones too (§6 assumes none). A
+//   * TCP: the session of each connection frames its messages (§2), so a master that sends
+//     garbage, half a header or a header announcing 65535 bytes disturbs only its own channel:
+//     its session resynchronises (max_message bounds what it waits for) or waits while the
+//     others are served. Requests are answered in order, pipelined ones too (§6 assumes none). A
 //     connection is closed when no message has completed for `idle_timeout`, or when one is
 //     not complete `request_timeout` after its first byte (bytes that form no message count
 //     as one), so a master that sends a byte now and then holds no channel
@@ -58,10 +58,12 @@
 #include <utility>
 #include <vector>
 
+#include "ferrule/core/session.hpp"
 #include "ferrule/host/serial_stream.hpp"
 #include "ferrule/host/server_connection.hpp"
 #include "ferrule/memobus/header.hpp"
 #include "ferrule/memobus/server.hpp"
+#include "ferrule/memobus/server_session.hpp"
 
 namespace ferrule::host {
 
@@ -212,21 +214,29 @@ private:
         std::array<std::atomic<std::uint64_t>, fields.size()> counts{};
     };
 
-    // A session of one channel and what of its stats has gone to the channel's slot.
+    // A session of one channel and what of its counts has gone to the channel's slot.
     struct channel_session {
-        memobus::server session;
+        memobus::server_session session;
         memobus::channel_stats published{};
+        std::uint32_t published_malformed = 0;
 
-        std::size_t handle(memobus_server& owner, std::size_t channel,
-                           std::span<const std::uint8_t> message, std::span<std::uint8_t> out) {
-            const std::size_t n = session.handle(message, owner.image_, out);
-            const memobus::channel_stats& now = session.stats();
+        // The next reply that is due, its counts published first; empty when none is.
+        std::span<const std::uint8_t> next_reply(memobus_server& owner, std::size_t channel) {
+            const session_action a = session.next(steady_now());
+            publish(owner, channel);
+            if (a.what != session_action::kind::send) return {};
+            ++owner.stats_.replies;
+            return a.bytes;
+        }
+
+        void publish(memobus_server& owner, std::size_t channel) {
+            const memobus::channel_stats& now = session.handler().stats();
             slot& s = owner.slots_[channel];
             for (std::size_t k = 0; k < fields.size(); ++k)
                 s.counts[k] += static_cast<std::uint32_t>(now.*fields[k] - published.*fields[k]);
             published = now;
-            if (n > 0) ++owner.stats_.replies;
-            return n;
+            s.malformed += session.stats().malformed - published_malformed;
+            published_malformed = session.stats().malformed;
         }
     };
 
@@ -250,6 +260,7 @@ private:
         friend base;
         using base::backlogged;
         using base::read_on;
+        using base::received_at;
         using base::request_begun;
         using base::request_completed;
         using base::send;
@@ -260,30 +271,41 @@ private:
     public:
         connection(memobus_server& owner, ::asio::ip::tcp::socket socket, std::size_t channel)
             : base(std::move(socket)), owner_(owner),
-              channel_(channel), session_{memobus::server(owner.config_of(channel))} {}
+              channel_(channel), session_{memobus::server_session(owner.image_,
+                                                                  owner.config_of(channel))} {}
 
         std::size_t channel() const noexcept { return channel_; }
         using base::shut;
 
     private:
-        // Frames what was read and answers each message, until all is used or the replies
-        // back up; reads on when all is used. The bytes since the last message, whether they
-        // begin one or form none, are timed as a request.
+        // Answers what was read, handing the session a chunk only when it has no reply
+        // waiting, until all is used or the replies back up; reads on when all is used.
         void feed() {
-            using status = memobus::message_decoder::status;
-            while (!unused().empty() && !backlogged()) {
-                const auto s = decoder_.feed(unused());
-                use(s.consumed);
-                if (s.what == status::error) ++owner_.slots_[channel_].malformed;
-                if (s.what == status::frame) request_completed();
-                if (decoder_.in_message() || (s.what != status::frame && s.consumed > 0))
-                    request_begun();
-                if (s.what != status::frame) continue;
-                const std::size_t n = session_.handle(owner_, channel_, decoder_.message(), tx_);
-                if (n > 0) send({tx_.data(), n});
+            for (;;) {
+                answer();
                 if (!socket_.is_open()) return;
+                if (backlogged() || session_.session.wake_at() != never || unused().empty()) break;
+                const auto bytes = unused().first(
+                    std::min(unused().size(), memobus::server_session::held_capacity));
+                session_.session.on_receive(bytes, received_at());
+                use(bytes.size());
             }
             read_on();
+        }
+
+        // Sends the replies that are due while the master takes them. The bytes since the
+        // last message, whether they begin one or form none, are timed as a request.
+        void answer() {
+            while (!backlogged()) {
+                const auto reply = session_.next_reply(owner_, channel_);
+                if (reply.empty()) break;
+                send(reply);
+                if (!socket_.is_open()) return;
+            }
+            const std::uint32_t framed = session_.session.stats().messages;
+            if (framed != framed_) request_completed();
+            framed_ = framed;
+            if (session_.session.in_message()) request_begun();
         }
 
         void end(close_reason why) {
@@ -298,8 +320,7 @@ private:
         memobus_server& owner_;
         std::size_t channel_;
         channel_session session_;
-        memobus::message_decoder decoder_;
-        std::array<std::uint8_t, memobus::max_message> tx_{};
+        std::uint32_t framed_ = 0; // the session's messages, as last timed
     };
 
     // The count of TCP connections closed for `why`.
@@ -362,11 +383,14 @@ private:
         peer* p = find_peer(udp_from_, datagram);
         if (p == nullptr) return;
         p->last_activity = steady_now();
-        const std::size_t size = p->session.handle(*this, p->channel, datagram, udp_tx_);
-        if (size == 0) return;
-        std::error_code ec;
-        udp_.send_to(::asio::buffer(udp_tx_.data(), size), p->endpoint, 0, ec);
-        if (ec) ++stats_.udp_unsent;
+        p->session.session.on_receive(datagram, p->last_activity);
+        for (;;) {
+            const auto reply = p->session.next_reply(*this, p->channel);
+            if (reply.empty()) return;
+            std::error_code ec;
+            udp_.send_to(::asio::buffer(reply.data(), reply.size()), p->endpoint, 0, ec);
+            if (ec) ++stats_.udp_unsent;
+        }
     }
 
     // A free channel, or the channel of a UDP peer silent for idle_timeout (a UDP peer has no
@@ -407,7 +431,11 @@ private:
             return nullptr;
         }
         ++stats_.udp_peers;
-        peers_.push_back({from, *channel, {memobus::server(config_of(*channel))}, {}});
+        peers_.push_back(
+            {from,
+             *channel,
+             {memobus::server_session(image_, config_of(*channel), memobus::transport::udp)},
+             {}});
         return &peers_.back();
     }
 
@@ -426,7 +454,6 @@ private:
     std::list<std::shared_ptr<connection>> connections_;
     std::list<peer> peers_;
     std::array<std::uint8_t, memobus::max_message + 1> udp_rx_{};
-    std::array<std::uint8_t, memobus::max_message> udp_tx_{};
     ::asio::ip::udp::endpoint udp_from_;
 };
 

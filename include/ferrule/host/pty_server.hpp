@@ -1,8 +1,7 @@
 // pty_server: serves simulated devices on a pseudo-terminal, so a program that opens a
 // serial port by path (ferrule's CLI, another library, a terminal) can talk to them with no
-// hardware. Several stations on one pty form a multi-drop bus: each hears every byte the
-// master writes and answers on its own (sans-I/O stations: on_receive(bytes, now) and
-// next(now) -> session_action, as movilink::sim::station and the Dimetix simulator do).
+// hardware. Several stations (core/station.hpp) on one pty form a multi-drop bus: each hears
+// every byte the master writes and answers on its own.
 //
 // Fault injection for tests and demos: drop or corrupt a share of the replies, delay them.
 // A pty has no baud rate: bytes arrive as fast as the master writes them.
@@ -23,10 +22,11 @@
 #include <system_error>
 #include <vector>
 
+#include "ferrule/core/session.hpp"
+#include "ferrule/core/station.hpp"
+#include "ferrule/core/time.hpp"
 #include "ferrule/host/pseudo_terminal.hpp"
 #include "ferrule/host/serial_stream.hpp"
-#include "ferrule/core/session.hpp"
-#include "ferrule/core/time.hpp"
 
 namespace ferrule::host {
 
@@ -49,7 +49,7 @@ struct pty_stats {
     std::uint64_t corrupted = 0;
 };
 
-template <class Station>
+template <station Station>
 class pty_server {
 public:
     explicit pty_server(pty_faults faults = {}) : faults_(faults), rng_(faults.seed) {}

@@ -1,8 +1,7 @@
-// serve(): runs the device side of a line — a Modbus server, a LECOM or MOVILINK slave, any
-// station with on_receive(bytes, end) and next(now) -> session_action — on a blocking byte
-// stream such as host::serial_stream over a real serial port, until `stop` is set.
-// serve_while(): the same for any session that never finishes (a station, lecom::poller),
-// for as long as a check the caller gives says so.
+// serve(): runs a station (core/station.hpp) on a blocking byte stream such as
+// host::serial_stream over a real serial port, until `stop` is set.
+// serve_while(): the same, for as long as a check the caller gives says so; it also runs a
+// master session that starts its own transactions and is never done (lecom::poller).
 // (pty_server does the same for simulators on a pseudo-terminal it creates itself.)
 #pragma once
 
@@ -17,15 +16,16 @@
 #include "ferrule/core/driver.hpp"
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/station.hpp"
 
 namespace ferrule::host {
 
 // keep_going() is asked at the start and then every `check_interval` (reads never wait
 // past the next check); serving ends when it returns false. Returns the transport error
-// that ended it (also handed to the session's on_transport_error(), if it has one), or {}.
+// that ended it (also handed to a master session's on_transport_error()), or {}.
 template <session_stream S, class Session, class KeepGoing>
-std::error_code serve_while(S& line, Session& session, duration check_interval,
-                            KeepGoing&& keep_going) {
+requires station<Session> || master_session<Session> std::error_code
+serve_while(S& line, Session& session, duration check_interval, KeepGoing&& keep_going) {
     const auto fail = [&](std::error_code ec) {
         if constexpr (requires { session.on_transport_error(ec); }) session.on_transport_error(ec);
         return ec;
@@ -55,7 +55,7 @@ std::error_code serve_while(S& line, Session& session, duration check_interval,
 }
 
 // Until `stop` is set; it is looked at least every `poll_interval`.
-template <session_stream S, class Station>
+template <session_stream S, station Station>
 std::error_code serve(S& line, Station& station, const std::atomic<bool>& stop,
                       duration poll_interval = std::chrono::milliseconds(50)) {
     return serve_while(line, station, poll_interval,

@@ -28,7 +28,10 @@
 #include <system_error>
 
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/queued_reply.hpp"
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/static_buffer.hpp"
+#include "ferrule/core/station.hpp"
 #include "ferrule/core/time.hpp"
 #include "ferrule/lecom/constants.hpp"
 #include "ferrule/lecom/frame.hpp"
@@ -62,7 +65,7 @@ public:
     // A chunk of bytes from the line whose last byte ended at `end`.
     void on_receive(std::span<const std::uint8_t> bytes, time_point end) noexcept {
         if (bytes.empty()) return;
-        if (state_ == state::request) {
+        if (request_pending_) {
             hold(bytes, end);
             return;
         }
@@ -70,7 +73,7 @@ public:
     }
 
     // A request waits for respond() or consume().
-    bool has_request() const noexcept { return state_ == state::request; }
+    bool has_request() const noexcept { return request_pending_; }
     // The pending request (valid while has_request()).
     const frame& request() const noexcept { return request_; }
     // When the pending request's last character ended on the wire.
@@ -83,14 +86,15 @@ public:
     // bare_replies a no_code reply goes out as a bare EOT and a fault reply as a bare NAK.
     // Refused with errc::no_response_expected for 00 / x0: consume() those.
     std::error_code respond(const frame& reply) noexcept {
-        if (state_ != state::request) return errc::invalid_argument;
+        if (!request_pending_) return errc::invalid_argument;
         if (!response_expected()) return errc::no_response_expected;
         if (!fits(reply)) return errc::invalid_argument;
         frame out = reply;
         if (cfg_.bare_replies && out.kind == frame_kind::no_code) out = frame{frame_kind::eot};
         if (cfg_.bare_replies && out.kind == frame_kind::fault) out = frame{frame_kind::nak};
-        const auto n = encode(out, tx_);
+        const auto n = encode(out, reply_.buffer());
         if (!n) return n.error();
+        request_pending_ = false;
         queue(*n, request_end_);
         resume();
         return {};
@@ -98,30 +102,20 @@ public:
 
     // Drops the pending request without an answer (required for 00 / x0).
     void consume() noexcept {
-        if (state_ != state::request) return;
-        state_ = state::listening;
+        if (!request_pending_) return;
+        request_pending_ = false;
         resume();
     }
 
     // idle: listening; done: a request waits for respond() / consume(); wait: a reply is
     // queued for the deadline; send: put these bytes on the line now.
     session_action next(time_point now) noexcept {
-        switch (state_) {
-        case state::listening: return session_action::idle();
-        case state::request: return session_action::done();
-        case state::reply_queued:
-            if (before(now, reply_at_)) return session_action::wait_until(reply_at_);
-            state_ = state::listening;
-            ++stats_.replies;
-            return session_action::send({tx_.data(), tx_size_}, false);
-        }
-        return session_action::idle();
+        return reply_.next(now, request_pending_, stats_.replies);
     }
 
-    // When the queued reply is due; `never` when none is queued.
-    time_point reply_at() const noexcept {
-        return state_ == state::reply_queued ? reply_at_ : never;
-    }
+    // When the queued reply is due; `never` when none is queued (a pending request waits for
+    // the application, not for a time).
+    time_point wake_at() const noexcept { return reply_.due(); }
 
     std::uint8_t address() const noexcept { return cfg_.address; }
     // A new C0009 takes effect for the next telegram; 00 and x0 are not unit addresses
@@ -138,16 +132,14 @@ public:
     const slave_config& config() const noexcept { return cfg_; }
 
 private:
-    enum class state : std::uint8_t { listening, request, reply_queued };
-
     void feed(std::span<const std::uint8_t> in, time_point end) noexcept {
         std::size_t offset = 0;
-        while (offset < in.size() && state_ != state::request) {
+        while (offset < in.size() && !request_pending_) {
             const auto step = decoder_.feed(in.subspan(offset));
             offset += step.consumed;
             const bool telegram = step.what == frame_decoder::status::frame || decoder_.in_frame();
-            if (state_ == state::reply_queued && telegram) {
-                state_ = state::listening;
+            if (reply_.queued() && telegram) {
+                reply_.drop();
                 ++stats_.abandoned;
             }
             if (step.what == frame_decoder::status::error) ++stats_.malformed;
@@ -158,23 +150,13 @@ private:
 
     // Keeps bytes for after the pending request (their end time is the latest chunk's).
     void hold(std::span<const std::uint8_t> in, time_point end) noexcept {
-        for (const std::uint8_t b : in) {
-            if (held_size_ == held_.size()) {
-                ++stats_.overflowed;
-                continue;
-            }
-            held_[held_size_++] = b;
-        }
-        held_end_ = end;
+        stats_.overflowed += static_cast<std::uint32_t>(held_.hold(in, end));
     }
 
     // Decodes the held bytes once the pending request is done with.
     void resume() noexcept {
-        if (held_size_ == 0) return;
-        std::array<std::uint8_t, held_capacity> rest = held_;
-        const std::size_t n = held_size_;
-        held_size_ = 0;
-        feed({rest.data(), n}, held_end_);
+        if (held_.empty()) return;
+        held_.release([this](std::span<const std::uint8_t> in, time_point end) { feed(in, end); });
     }
 
     // A telegram from the decoder: EOT, two digits, then a RECEIVE or SEND body.
@@ -194,7 +176,7 @@ private:
             // and x0 get none (S1 p.8-24).
             ++stats_.bad_checksum;
             if (target == cfg_.address) {
-                tx_[0] = nak;
+                reply_.buffer()[0] = nak;
                 queue(1, end);
             }
             return;
@@ -202,7 +184,7 @@ private:
         ++stats_.requests;
         request_ = *f;
         request_end_ = end;
-        state_ = state::request;
+        request_pending_ = true;
         if (!response_expected()) ++stats_.no_reply_requests;
     }
 
@@ -221,23 +203,19 @@ private:
     }
 
     void queue(std::size_t n, time_point request_end) noexcept {
-        tx_size_ = n;
-        reply_at_ = request_end + cfg_.processing_time;
-        state_ = state::reply_queued;
+        reply_.queue(n, request_end + cfg_.processing_time);
     }
 
     slave_config cfg_;
     slave_stats stats_{};
-    state state_ = state::listening;
+    bool request_pending_ = false; // waits for respond() / consume()
     frame_decoder decoder_{frame_decoder::accept::requests};
     frame request_{};
     time_point request_end_{};
-    time_point reply_at_{};
-    std::array<std::uint8_t, max_reply_length> tx_{};
-    std::size_t tx_size_ = 0;
-    std::array<std::uint8_t, held_capacity> held_{};
-    std::size_t held_size_ = 0;
-    time_point held_end_{};
+    queued_reply<max_reply_length> reply_{};
+    held_bytes<held_capacity> held_{};
 };
+
+static_assert(station<slave>);
 
 } // namespace ferrule::lecom

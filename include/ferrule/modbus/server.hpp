@@ -53,6 +53,7 @@
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/static_buffer.hpp"
 #include "ferrule/core/time.hpp"
 #include "ferrule/modbus/constants.hpp"
 #include "ferrule/modbus/data_model.hpp"
@@ -141,7 +142,7 @@ public:
         if (bytes.empty()) return;
         if (!rtu()) {
             // Requests held from before come first.
-            if (state_ == state::listening && held_size_ > 0) resume();
+            if (state_ == state::listening && !held_.empty()) resume();
             if (state_ == state::reply_queued) {
                 hold(bytes, end);
                 return;
@@ -160,7 +161,7 @@ public:
     // idle: nothing to do until bytes come; wait: call again at the deadline (a reply is due,
     // or the RTU frame in progress ends by silence); send: put these bytes on the line now.
     session_action next(time_point now) noexcept {
-        if (!rtu() && state_ == state::listening && held_size_ > 0) resume();
+        if (!rtu() && state_ == state::listening && !held_.empty()) resume();
         if (state_ == state::listening && rtu() && !rtu_.empty()) {
             if (before(now, rx_end_ + t35())) return session_action::wait_until(rx_end_ + t35());
             finish_rtu();
@@ -187,7 +188,7 @@ public:
     // When next() wants to be called: the reply, or the end of an RTU frame by silence.
     time_point wake_at() const noexcept {
         if (state_ == state::reply_queued) return reply_at_;
-        if (!rtu() && held_size_ > 0) return held_end_;
+        if (!rtu() && !held_.empty()) return held_.end();
         if (rtu() && !rtu_.empty()) return rx_end_ + t35();
         return never;
     }
@@ -384,21 +385,12 @@ private:
 
     // Keeps bytes for after the pending reply (their end time is the latest chunk's).
     void hold(std::span<const std::uint8_t> in, time_point end) noexcept {
-        for (const std::uint8_t b : in) {
-            if (held_size_ == held_.size()) {
-                ++stats_.overflowed;
-                continue;
-            }
-            held_[held_size_++] = b;
-        }
-        held_end_ = end;
+        stats_.overflowed += static_cast<std::uint32_t>(held_.hold(in, end));
     }
 
     void resume() noexcept {
-        std::array<std::uint8_t, held_capacity> rest = held_;
-        const std::size_t n = held_size_;
-        held_size_ = 0;
-        feed_tcp({rest.data(), n}, held_end_);
+        held_.release(
+            [this](std::span<const std::uint8_t> in, time_point end) { feed_tcp(in, end); });
     }
 
     // --- both ------------------------------------------------------------------------------
@@ -531,9 +523,7 @@ private:
     std::array<std::uint8_t, max_tcp_adu> tx_{};
     std::size_t tx_size_ = 0;
     std::uint8_t tx_exception_ = 0;
-    std::array<std::uint8_t, held_capacity> held_{};
-    std::size_t held_size_ = 0;
-    time_point held_end_{};
+    held_bytes<Link == link_mode::rtu ? 0 : held_capacity> held_{}; // TCP only
 };
 
 } // namespace ferrule::modbus

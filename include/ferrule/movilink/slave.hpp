@@ -21,8 +21,10 @@
 #include <system_error>
 
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/queued_reply.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/station.hpp"
 #include "ferrule/core/time.hpp"
 #include "ferrule/movilink/constants.hpp"
 #include "ferrule/movilink/frame.hpp"
@@ -64,11 +66,12 @@ public:
         heard_ = true;
         last_end_ = now;
 
-        if (state_ != state::listening) {
+        if (request_pending_ || reply_.queued()) {
             // A new telegram: the master gave up on this one. Without a start pause the
             // bytes belong to the request itself, which the decoder reports as malformed.
             if (after_idle) ++stats_.abandoned;
-            state_ = state::listening;
+            request_pending_ = false;
+            reply_.drop();
         }
         if (after_idle) {
             if (decoder_.in_frame()) break_telegram();
@@ -92,7 +95,7 @@ public:
             offset += step.consumed;
             if (step.status == decoder::status::error) {
                 // Bytes right behind a request also spoil it: the line was not clean.
-                state_ = state::listening;
+                request_pending_ = false;
                 if (step.ec == errc::bad_checksum)
                     ++stats_.bad_checksum;
                 else
@@ -108,7 +111,7 @@ public:
     }
 
     // A request waits for respond() or consume().
-    bool has_request() const noexcept { return state_ == state::request; }
+    bool has_request() const noexcept { return request_pending_; }
     // The pending request (valid while has_request()).
     const telegram& request() const noexcept { return request_; }
     // When the pending request's BCC ended on the wire.
@@ -120,43 +123,31 @@ public:
     // point-to-point request also this unit's own address). Refused with
     // errc::no_response_expected for group / broadcast requests: consume() those.
     std::error_code respond(const telegram& reply) noexcept {
-        if (state_ != state::request) return errc::invalid_argument;
+        if (!request_pending_) return errc::invalid_argument;
         if (!response_expected()) return errc::no_response_expected;
         const bool own_address =
             reply.address == request_.address ||
             (request_.address == address_point_to_point && reply.address == cfg_.address);
         if (reply.dir != direction::response || reply.type != request_.type || !own_address)
             return errc::invalid_argument;
-        tx_size_ = *encode(reply, tx_);
-        reply_at_ = request_end_ + cfg_.start_pause + cfg_.processing_time;
-        state_ = state::reply_queued;
+        request_pending_ = false;
+        reply_.queue(*encode(reply, reply_.buffer()),
+                     request_end_ + cfg_.start_pause + cfg_.processing_time);
         return {};
     }
 
     // Drops the pending request without an answer (required for group / broadcast).
-    void consume() noexcept {
-        if (state_ == state::request) state_ = state::listening;
-    }
+    void consume() noexcept { request_pending_ = false; }
 
     // idle: listening; done: a request waits for respond() / consume(); wait: a reply is
     // queued for the deadline; send: put these bytes on the line now.
     session_action next(time_point now) noexcept {
-        switch (state_) {
-        case state::listening: return session_action::idle();
-        case state::request: return session_action::done();
-        case state::reply_queued:
-            if (before(now, reply_at_)) return session_action::wait_until(reply_at_);
-            state_ = state::listening;
-            ++stats_.replies;
-            return session_action::send({tx_.data(), tx_size_}, false);
-        }
-        return session_action::idle();
+        return reply_.next(now, request_pending_, stats_.replies);
     }
 
-    // When the queued reply is due; `never` when none is queued.
-    time_point reply_at() const noexcept {
-        return state_ == state::reply_queued ? reply_at_ : never;
-    }
+    // When the queued reply is due; `never` when none is queued (a pending request waits for
+    // the application, not for a time).
+    time_point wake_at() const noexcept { return reply_.due(); }
 
     // Whether a request with this ADR is for this unit (SC01 p.20-22).
     bool addressed(std::uint8_t adr) const noexcept {
@@ -170,8 +161,6 @@ public:
     const slave_config& config() const noexcept { return cfg_; }
 
 private:
-    enum class state : std::uint8_t { listening, request, reply_queued };
-
     void break_telegram() noexcept {
         ++stats_.gap_errors;
         stats_.skipped_bytes += static_cast<std::uint32_t>(decoder_.buffered());
@@ -188,21 +177,21 @@ private:
         if (!expects_response(t.address)) ++stats_.no_reply_requests;
         request_ = t;
         request_end_ = end;
-        state_ = state::request;
+        request_pending_ = true;
     }
 
     slave_config cfg_;
     slave_stats stats_{};
-    state state_ = state::listening;
+    bool request_pending_ = false; // waits for respond() / consume()
     decoder decoder_{decoder::accept::requests};
     bool heard_ = false;
     bool skipping_ = false;
     time_point last_end_{};
     telegram request_{};
     time_point request_end_{};
-    time_point reply_at_{};
-    std::array<std::uint8_t, max_telegram_size> tx_{};
-    std::size_t tx_size_ = 0;
+    queued_reply<max_telegram_size> reply_{};
 };
+
+static_assert(station<slave>);
 
 } // namespace ferrule::movilink

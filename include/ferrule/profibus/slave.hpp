@@ -48,6 +48,7 @@
 #include "ferrule/core/result.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/station.hpp"
 #include "ferrule/core/time.hpp"
 #include "ferrule/profibus/constants.hpp"
 #include "ferrule/profibus/fdl.hpp"
@@ -476,5 +477,7 @@ private:
     bool frozen_ = false;
     bool synced_ = false;
 };
+
+static_assert(station<slave>);
 
 } // namespace ferrule::profibus

@@ -7,9 +7,8 @@
 //     stations do not hear each other's replies
 //   * fault knobs act on the next k replies, whichever station sends them (reply_faults)
 //
-// A Station has on_receive(bytes, end), next(now) -> session_action and wake_at(); for
-// advance(), also advance(now) (runs its device model up to `now`). Each protocol's bus adds
-// its own add().
+// A Station is a ferrule::station (core/station.hpp); for advance(), it also has advance(now)
+// (runs its device model up to `now`). Each protocol's bus adds its own add().
 #pragma once
 
 #include <algorithm>
@@ -18,13 +17,14 @@
 #include <cstdint>
 #include <span>
 
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/station.hpp"
 #include "ferrule/core/time.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 namespace ferrule {
 
-template <class Station, std::size_t N>
+template <station Station, std::size_t N>
 class sim_line : public mock_peer, public reply_faults {
 public:
     std::size_t size() const noexcept { return size_; }

@@ -9,10 +9,13 @@
 
 #include <cstddef>
 
-#include "ferrule/sim/line.hpp"
+#include "ferrule/core/station.hpp"
 #include "ferrule/dimetix/sim/sensor.hpp"
+#include "ferrule/sim/line.hpp"
 
 namespace ferrule::dimetix::sim {
+
+static_assert(ferrule::station<d_series>);
 
 // Fault knobs (drop / corrupt / delay the next replies): see ferrule::reply_faults.
 template <std::size_t N>

@@ -8,6 +8,7 @@
 #include <span>
 
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/station.hpp"
 #include "ferrule/core/time.hpp"
 #include "ferrule/lecom/frame.hpp"
 #include "ferrule/lecom/sim/drive.hpp"
@@ -43,7 +44,7 @@ struct station {
     }
 
     session_action next(time_point now) noexcept { return session.next(now); }
-    time_point wake_at() const noexcept { return session.reply_at(); }
+    time_point wake_at() const noexcept { return session.wake_at(); }
     void advance(time_point now) noexcept { drive.advance(now); }
 
 private:
@@ -52,5 +53,7 @@ private:
         return cfg;
     }
 };
+
+static_assert(ferrule::station<station>);
 
 } // namespace ferrule::lecom::sim

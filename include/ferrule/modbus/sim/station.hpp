@@ -8,6 +8,7 @@
 #include <span>
 
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/station.hpp"
 #include "ferrule/core/time.hpp"
 #include "ferrule/modbus/server.hpp"
 #include "ferrule/modbus/sim/vfd.hpp"
@@ -38,5 +39,8 @@ struct station {
     vfd& drive() noexcept { return session.model(); }
     const vfd& drive() const noexcept { return session.model(); }
 };
+
+static_assert(ferrule::station<server<vfd>>);
+static_assert(ferrule::station<station>);
 
 } // namespace ferrule::modbus::sim

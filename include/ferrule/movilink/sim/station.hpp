@@ -8,6 +8,7 @@
 #include <span>
 
 #include "ferrule/core/session.hpp"
+#include "ferrule/core/station.hpp"
 #include "ferrule/core/time.hpp"
 #include "ferrule/movilink/sim/movitrac_b.hpp"
 #include "ferrule/movilink/slave.hpp"
@@ -40,8 +41,10 @@ struct station {
     }
 
     session_action next(time_point now) noexcept { return session.next(now); }
-    time_point wake_at() const noexcept { return session.reply_at(); }
+    time_point wake_at() const noexcept { return session.wake_at(); }
     void advance(time_point now) noexcept { drive.advance(now); }
 };
+
+static_assert(ferrule::station<station>);
 
 } // namespace ferrule::movilink::sim
