@@ -117,8 +117,9 @@ TEST_CASE("station_driver: a write that fails is the step's error, the next requ
     CHECK_FALSE(driver.step());
     answer(slave);
     line.sleep_until(slave.wake_at());
-    line.fail_next_writes(1);
+    line.fail_at(2); // a step reads (operation 1), then writes the due reply (operation 2)
     CHECK(driver.step() == errc::transport);
+    CHECK(line.writes() == 0);
     CHECK(sent_by_station(line).empty());
 
     line.inject(read_c46_at_01, line.now() + 5ms);
