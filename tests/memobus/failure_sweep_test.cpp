@@ -1,15 +1,18 @@
 // MEMOBUS master through every failure point of a transaction (tests/core/failure_sweep.hpp),
-// a silent controller and the end of the stream, against memobus::server on one channel.
+// a silent controller and the end of the stream, against memobus::server on one channel; and
+// the controller's side, memobus::server_session, served as a station.
 #include <catch2/catch.hpp>
 
 #include <array>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "../core/failure_sweep.hpp"
 #include "ferrule/memobus/access.hpp"
 #include "ferrule/memobus/register_image.hpp"
 #include "ferrule/memobus/server.hpp"
+#include "ferrule/memobus/server_session.hpp"
 #include "ferrule/sim/mock_serial.hpp"
 
 using namespace std::chrono_literals;
@@ -85,6 +88,35 @@ void nothing_read(const rig& r, std::error_code ec, std::error_code expected) {
     CHECK(r.m.stats().failed == 1);
 }
 
+// The controller's side: one TCP channel, served as firmware or ferrule-sim would.
+struct station_rig {
+    register_image<256, 16> image;
+    mock_serial line{fast};
+    server_session channel{image};
+    station_rig() { std::copy(values.begin(), values.end(), image.mw().begin() + 100); }
+};
+
+// SFC 09 (read hold registers, extended), MW100 and 4 words, serial number 7.
+std::vector<std::uint8_t> read_mw100_command() {
+    std::vector<std::uint8_t> out(max_message);
+    const request q{.address = 100, .count = static_cast<std::uint16_t>(values.size())};
+    out.resize(*encode_command(q, 7, out));
+    return out;
+}
+
+ferrule::test::served serve_read_mw100(station_rig& r) {
+    return ferrule::test::serve_request(r.line, r.channel, read_mw100_command(), 10ms);
+}
+
+void answered_values(station_rig& r, const ferrule::test::served& s) {
+    CHECK(s.errors == 0);
+    std::array<std::uint8_t, max_message> expected{};
+    server alone;
+    const std::size_t n = alone.handle(read_mw100_command(), r.image, expected);
+    REQUIRE(n > 0);
+    CHECK(s.sent == std::vector<std::uint8_t>(expected.begin(), expected.begin() + n));
+}
+
 } // namespace
 
 TEST_CASE("memobus master failure sweep", "[memobus][master][sweep]") {
@@ -115,4 +147,8 @@ TEST_CASE("memobus master: a silent controller, then the end of the stream",
     CHECK(closed.m.attempts() == 1);
     closed.line.end_of_stream(false);
     read_values(closed, read_mw100(closed));
+}
+
+TEST_CASE("memobus server_session failure sweep", "[memobus][server_session][sweep]") {
+    ferrule::test::station_sweep<station_rig>(serve_read_mw100, answered_values);
 }
