@@ -64,9 +64,7 @@ class basic_rtu_decoder : public frame_scanner<basic_rtu_decoder<Fs, Frames>, ma
     using base::drop_failed;
     using base::drop_garbage;
     using base::frame_size_;
-    using base::garbage_;
     using base::size_;
-    using base::take_frame;
     using base::view;
     using base::yield;
 
@@ -85,21 +83,7 @@ public:
     // behind a broken one is still found. In requests mode, buffered bytes of a function
     // code that cannot be framed by length are a frame when their CRC checks (the server
     // can answer it with exception 01).
-    step finish() noexcept {
-        take_frame();
-        for (;;) {
-            const step s = scan();
-            if (s.what != status::need_more) return s;
-            if (size_ == 0) break;
-            const auto pdu = std::span<const std::uint8_t>(buf_.data() + 1, size_ - 1);
-            if (requests() && size_ >= 4 && expected_request_length(pdu) == no_frame &&
-                crc16_modbus(view(size_)) == 0)
-                return yield(size_);
-            if (drop_garbage()) return {status::error, 0, errc::malformed};
-        }
-        garbage_ = false;
-        return {};
-    }
+    step finish() noexcept { return base::drain(); }
 
     // The frame just yielded (valid until the next feed(), finish() or reset()).
     std::uint8_t address() const noexcept { return frame_size_ ? buf_[0] : std::uint8_t{0}; }
@@ -110,6 +94,13 @@ public:
     std::span<const std::uint8_t> adu() const noexcept { return {buf_.data(), frame_size_}; }
 
 private:
+    // At the silence, a request of a function code that cannot be framed by length.
+    bool whole_at_silence() const noexcept {
+        const auto pdu = std::span<const std::uint8_t>(buf_.data() + 1, size_ - 1);
+        return requests() && size_ >= 4 && expected_request_length(pdu) == no_frame &&
+               crc16_modbus(view(size_)) == 0;
+    }
+
     constexpr bool requests() const noexcept {
         if constexpr (Frames == rtu_frames::either)
             return accept_ == accept::requests;
