@@ -11,10 +11,10 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/memobus/access.hpp"
 #include "ferrule/memobus/master.hpp"
 #include "ferrule/memobus/message.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace std::chrono_literals;
 using namespace ferrule::memobus;
@@ -462,6 +462,59 @@ TEST_CASE("memobus master: timeouts resent at exact times", "[memobus][master][t
         CHECK(m.stats().succeeded == 1);
         CHECK(m.error() == std::error_code{});
     }
+}
+
+TEST_CASE("memobus master: fault_threshold failed attempts in a row latch a fault",
+          "[memobus][master][fault]") {
+    master_config cfg;
+    cfg.response_timeout = 100ms;
+    cfg.retries = 1;
+    cfg.fault_threshold = 3;
+    // Two attempts time out; the third transaction's first attempt is the third failure in
+    // a row: it latches and is not resent although a retry is left.
+    const std::array<script_step, 4> steps{silent(command(read10, 0)), silent(command(read10, 1)),
+                                           silent(command(read10, 2)),
+                                           answer(command(read10, 3), read10_reply(3))};
+    ferrule::script_peer peer(steps);
+    mock_serial line(fast, &peer);
+    master m(cfg);
+    std::array<std::uint16_t, 10> regs{};
+    CHECK(read_words(line, m, mw(0), regs) == errc::timeout);
+    CHECK(m.consecutive_failures() == 2);
+    CHECK_FALSE(m.fault_latched());
+    CHECK(read_words(line, m, mw(0), regs) == errc::timeout);
+    CHECK(m.attempts() == 1);
+    CHECK(m.consecutive_failures() == 3);
+    CHECK(m.fault_latched());
+    CHECK(m.start(read10) == errc::fault_latched);
+    CHECK(m.stats().transactions == 2);
+    CHECK(peer.steps_done() == 3);
+    // reset_fault() lets it start again; a success clears the count.
+    m.reset_fault();
+    CHECK_FALSE(m.fault_latched());
+    CHECK(m.consecutive_failures() == 0);
+    REQUIRE_FALSE(read_words(line, m, mw(0), regs));
+    CHECK(regs[0] == 1);
+    CHECK(m.consecutive_failures() == 0);
+    CHECK(peer.mismatches() == 0);
+}
+
+TEST_CASE("memobus master: a controller error counts towards the fault latch",
+          "[memobus][master][fault]") {
+    const octets e16{0x19, 0, 0, 0, 0, 0, 0x12, 0, 0, 0, 0, 0, 0x04, 0x00, 0x20, 0x89, 0x01, 0x02};
+    const std::array<script_step, 2> steps{answer(command(read10, 0), e16),
+                                           answer(command(read10, 1), read10_reply(1))};
+    ferrule::script_peer peer(steps);
+    mock_serial line(fast, &peer);
+    master_config cfg;
+    cfg.fault_threshold = 2;
+    master m(cfg);
+    std::array<std::uint16_t, 10> regs{};
+    CHECK(read_words(line, m, mw(0), regs) == error_code::address_error);
+    CHECK(m.consecutive_failures() == 1);
+    REQUIRE_FALSE(read_words(line, m, mw(0), regs));
+    CHECK(m.consecutive_failures() == 0);
+    CHECK_FALSE(m.fault_latched());
 }
 
 TEST_CASE("memobus master: garbage before the response is skipped", "[memobus][master][stale]") {
