@@ -135,6 +135,8 @@ public:
     // Outcome of the finished transaction: empty on success, else the cause of the last
     // failed attempt: a ferrule::errc or the controller's memobus::device_category() code.
     std::error_code error() const noexcept { return error_; }
+    // The finished transaction succeeded: error() is empty.
+    bool succeeded() const noexcept { return !error_; }
     // The response of a successful transaction; its raw data spans the session's buffer,
     // valid until the next start().
     const memobus::response& response() const noexcept { return response_; }

@@ -137,6 +137,8 @@ public:
     // Outcome of the finished transaction: empty on success; errc::no_response_expected
     // for group / broadcast; a ferrule::errc or a movilink::device_category() code.
     std::error_code error() const noexcept { return error_; }
+    // The finished transaction succeeded: error() is empty.
+    bool succeeded() const noexcept { return !error_; }
     // The drive's reply (valid when error() is empty).
     const telegram& reply() const noexcept { return reply_; }
     // Requests sent for the finished transaction, not counting handshake repeats.
