@@ -28,7 +28,9 @@
 //     error of ferrule::errc / modbus::device_category(), never reads outside the PDU
 //   * conservation: after the silence, bytes consumed == bytes in frames + skipped()
 //   * rtu_receiver, the sessions' framing, pushed the same bytes one at a time and told the
-//     same silences, finds the same frames in the same order as a decoder of its mode
+//     same silences, finds the same frames in the same order as a decoder of its mode (both
+//     are front-ends of one framing rule, detail::scan_rtu: this checks what each front-end
+//     adds, the decoder's stop at every event and the receiver's byte-wise pushes)
 //     (requests: this one; responses: basic_rtu_decoder<all_functions,
 //     rtu_frames::responses>, which like it frames no response of the codes outside
 //     `function`), and holds nothing after a silence

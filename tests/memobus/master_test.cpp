@@ -423,6 +423,10 @@ TEST_CASE("memobus master: the controller's error code, not resent", "[memobus][
     CHECK(m.stats().device_errors == 1);
     CHECK(m.stats().failed == 1);
     CHECK(m.stats().resends == 0);
+    // It is a failure in a row all the same (the fault latch counts it); a success clears it.
+    CHECK(m.consecutive_failures() == 1);
+    REQUIRE_FALSE(read_words(line, m, mw(0), regs));
+    CHECK(m.consecutive_failures() == 0);
 }
 
 TEST_CASE("memobus master: timeouts resent at exact times", "[memobus][master][timing]") {
@@ -462,6 +466,41 @@ TEST_CASE("memobus master: timeouts resent at exact times", "[memobus][master][t
         CHECK(m.stats().succeeded == 1);
         CHECK(m.error() == std::error_code{});
     }
+}
+
+TEST_CASE("memobus master: fault_threshold failed attempts in a row latch a fault",
+          "[memobus][master][fault]") {
+    master_config cfg;
+    cfg.response_timeout = 100ms;
+    cfg.retries = 1;
+    cfg.fault_threshold = 3;
+    // Two attempts time out; the third transaction's first attempt is the third failure in
+    // a row: it latches and is not resent although a retry is left.
+    const std::array<script_step, 4> steps{silent(command(read10, 0)), silent(command(read10, 1)),
+                                           silent(command(read10, 2)),
+                                           answer(command(read10, 3), read10_reply(3))};
+    ferrule::script_peer peer(steps);
+    mock_serial line(fast, &peer);
+    master m(cfg);
+    std::array<std::uint16_t, 10> regs{};
+    CHECK(read_words(line, m, mw(0), regs) == errc::timeout);
+    CHECK(m.consecutive_failures() == 2);
+    CHECK_FALSE(m.fault_latched());
+    CHECK(read_words(line, m, mw(0), regs) == errc::timeout);
+    CHECK(m.attempts() == 1);
+    CHECK(m.consecutive_failures() == 3);
+    CHECK(m.fault_latched());
+    CHECK(m.start(read10) == errc::fault_latched);
+    CHECK(m.stats().transactions == 2);
+    CHECK(peer.steps_done() == 3);
+    // reset_fault() lets it start again; a success clears the count.
+    m.reset_fault();
+    CHECK_FALSE(m.fault_latched());
+    CHECK(m.consecutive_failures() == 0);
+    REQUIRE_FALSE(read_words(line, m, mw(0), regs));
+    CHECK(regs[0] == 1);
+    CHECK(m.consecutive_failures() == 0);
+    CHECK(peer.mismatches() == 0);
 }
 
 TEST_CASE("memobus master: garbage before the response is skipped", "[memobus][master][stale]") {

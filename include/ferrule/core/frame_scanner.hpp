@@ -4,7 +4,10 @@
 //     step scan() noexcept                   look at the buffered bytes: a frame (yield()),
 //                                            an error, or the need for more
 // and, to take more than one byte before the next scan(), `static constexpr bool reads_ahead`
-// with std::size_t wanted() const noexcept (how many).
+// with std::size_t wanted() const noexcept (how many). A decoder of a serial line, where
+// silence ends what is buffered, calls drain() from its finish(), and may give it
+//     bool whole_at_silence() const noexcept  all buffered bytes are one frame when the line
+//                                             is silent (a frame its length rule cannot end)
 // and reads its frame from the front of the buffer. Feed it with
 //     do { s = d.feed(in); in = in.subspan(s.consumed); … } while (s.what != status::need_more);
 // need_more means every byte given is used and no frame is complete; after an error the
@@ -77,6 +80,24 @@ public:
 
 protected:
     std::span<const std::uint8_t> view(std::size_t n) const noexcept { return {buf_.data(), n}; }
+
+    // The line has been silent: no byte will complete what is buffered. Called like feed()
+    // until need_more, it drops bytes from the front (one errc::malformed per run) until the
+    // rest holds a frame or nothing is left, so a frame behind a broken one is still found.
+    step drain() noexcept {
+        take_frame();
+        for (;;) {
+            const step s = self().scan();
+            if (s.what != status::need_more) return s;
+            if (size_ == 0) break;
+            if constexpr (requires(const Decoder& d) { d.whole_at_silence(); }) {
+                if (self().whole_at_silence()) return yield(size_);
+            }
+            if (drop_garbage()) return {status::error, 0, errc::malformed};
+        }
+        garbage_ = false;
+        return {};
+    }
 
     // The previous frame's bytes leave the buffer; bytes behind it are looked at again.
     void take_frame() noexcept {

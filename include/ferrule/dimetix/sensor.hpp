@@ -143,6 +143,8 @@ public:
     // Outcome of the finished command: empty, a ferrule::errc, or a device error
     // (dimetix::device_category(), value = zzz of gN@Ezzz).
     std::error_code error() const noexcept { return error_; }
+    // The finished transaction succeeded: error() is empty.
+    bool succeeded() const noexcept { return !error_; }
     // The answer (valid when error() is empty; for a device error the gN@Ezzz line).
     const reply& last_reply() const noexcept { return reply_; }
     const command& last_command() const noexcept { return cmd_; }

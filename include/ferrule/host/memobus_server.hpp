@@ -116,7 +116,7 @@ template <class Image>
 class memobus_server {
 public:
     memobus_server(::asio::any_io_executor ex, Image& image, memobus_server_options o = {})
-        : acceptor_(ex), udp_(ex), image_(image), options_(std::move(o)),
+        : listener_(ex), udp_(ex), image_(image), options_(std::move(o)),
           slots_(std::make_unique<slot[]>(options_.max_channels)) {}
     memobus_server(const memobus_server&) = delete;
     memobus_server& operator=(const memobus_server&) = delete;
@@ -124,14 +124,7 @@ public:
 
     // Binds, listens and starts accepting TCP connections. Port 0 picks a free port.
     std::error_code listen(const ::asio::ip::tcp::endpoint& at) {
-        std::error_code ec;
-        acceptor_.open(at.protocol(), ec);
-        if (!ec) acceptor_.set_option(::asio::socket_base::reuse_address(true), ec);
-        if (!ec) acceptor_.bind(at, ec);
-        if (!ec) acceptor_.listen(::asio::socket_base::max_listen_connections, ec);
-        if (ec) return ec;
-        accept();
-        return {};
+        return listener_.listen(at, [this](::asio::ip::tcp::socket s) { admit(std::move(s)); });
     }
 
     // Binds the UDP socket and starts receiving. Port 0 picks a free port.
@@ -145,10 +138,7 @@ public:
         return {};
     }
 
-    std::uint16_t port() const {
-        std::error_code ec;
-        return acceptor_.local_endpoint(ec).port();
-    }
+    std::uint16_t port() const { return listener_.port(); }
     std::uint16_t udp_port() const {
         std::error_code ec;
         return udp_.local_endpoint(ec).port();
@@ -156,8 +146,8 @@ public:
 
     // Stops accepting and receiving and closes every channel.
     void close() {
+        listener_.close();
         std::error_code ec;
-        acceptor_.close(ec);
         udp_.close(ec);
         for (auto& c : connections_) {
             c->shut();
@@ -336,23 +326,18 @@ private:
         return stats_.closed;
     }
 
-    void accept() {
-        acceptor_.async_accept([this](std::error_code ec, ::asio::ip::tcp::socket socket) {
-            if (ec == ::asio::error::operation_aborted || !acceptor_.is_open()) return;
-            if (!ec) {
-                if (const auto channel = take_or_reclaim()) {
-                    ++stats_.accepted;
-                    auto c = std::make_shared<connection>(*this, std::move(socket), *channel);
-                    connections_.push_back(c);
-                    c->start({options_.idle_timeout, options_.request_timeout});
-                } else {
-                    ++counter(close_reason::refused);
-                    std::error_code ignored;
-                    socket.close(ignored);
-                }
-            }
-            accept();
-        });
+    void admit(::asio::ip::tcp::socket socket) {
+        const auto channel = take_or_reclaim();
+        if (!channel) {
+            ++counter(close_reason::refused);
+            std::error_code ignored;
+            socket.close(ignored);
+            return;
+        }
+        ++stats_.accepted;
+        auto c = std::make_shared<connection>(*this, std::move(socket), *channel);
+        connections_.push_back(c);
+        c->start({options_.idle_timeout, options_.request_timeout});
     }
 
     void forget(connection* c) {
@@ -445,7 +430,7 @@ private:
         return h && h->type == memobus::command_type::command;
     }
 
-    ::asio::ip::tcp::acceptor acceptor_;
+    tcp_listener listener_;
     ::asio::ip::udp::socket udp_;
     Image& image_;
     memobus_server_options options_;

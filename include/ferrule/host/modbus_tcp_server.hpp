@@ -38,9 +38,9 @@
 #include <system_error>
 #include <vector>
 
+#include "ferrule/core/session.hpp"
 #include "ferrule/host/serial_stream.hpp"
 #include "ferrule/host/server_connection.hpp"
-#include "ferrule/core/session.hpp"
 #include "ferrule/modbus/data_model.hpp"
 #include "ferrule/modbus/model_ref.hpp"
 #include "ferrule/modbus/server.hpp"
@@ -78,32 +78,21 @@ template <modbus::data_model M>
 class modbus_tcp_server {
 public:
     modbus_tcp_server(::asio::any_io_executor ex, M& model, modbus_tcp_server_options o = {})
-        : ex_(ex), acceptor_(ex), model_(model), options_(o) {}
+        : ex_(ex), listener_(ex), model_(model), options_(o) {}
     modbus_tcp_server(const modbus_tcp_server&) = delete;
     modbus_tcp_server& operator=(const modbus_tcp_server&) = delete;
     ~modbus_tcp_server() { close(); }
 
     // Binds, listens and starts accepting. Port 0 picks a free port (see port()).
     std::error_code listen(const ::asio::ip::tcp::endpoint& at) {
-        std::error_code ec;
-        acceptor_.open(at.protocol(), ec);
-        if (!ec) acceptor_.set_option(::asio::socket_base::reuse_address(true), ec);
-        if (!ec) acceptor_.bind(at, ec);
-        if (!ec) acceptor_.listen(::asio::socket_base::max_listen_connections, ec);
-        if (ec) return ec;
-        accept();
-        return {};
+        return listener_.listen(at, [this](::asio::ip::tcp::socket s) { admit(std::move(s)); });
     }
 
-    std::uint16_t port() const {
-        std::error_code ec;
-        return acceptor_.local_endpoint(ec).port();
-    }
+    std::uint16_t port() const { return listener_.port(); }
 
     // Stops accepting and closes every connection.
     void close() {
-        std::error_code ec;
-        acceptor_.close(ec);
+        listener_.close();
         for (auto& c : connections_) c->shut();
         connections_.clear();
     }
@@ -232,23 +221,17 @@ private:
         return stats_.closed;
     }
 
-    void accept() {
-        acceptor_.async_accept([this](std::error_code ec, ::asio::ip::tcp::socket socket) {
-            if (ec == ::asio::error::operation_aborted || !acceptor_.is_open()) return;
-            if (!ec) {
-                if (connections_.size() >= options_.max_connections) {
-                    closing(socket, close_reason::refused);
-                    std::error_code ignored;
-                    socket.close(ignored);
-                } else {
-                    ++stats_.accepted;
-                    auto c = std::make_shared<connection>(*this, std::move(socket));
-                    connections_.push_back(c);
-                    c->start({options_.idle_timeout, options_.request_timeout});
-                }
-            }
-            accept();
-        });
+    void admit(::asio::ip::tcp::socket socket) {
+        if (connections_.size() >= options_.max_connections) {
+            closing(socket, close_reason::refused);
+            std::error_code ignored;
+            socket.close(ignored);
+            return;
+        }
+        ++stats_.accepted;
+        auto c = std::make_shared<connection>(*this, std::move(socket));
+        connections_.push_back(c);
+        c->start({options_.idle_timeout, options_.request_timeout});
     }
 
     void forget(connection* c) {
@@ -256,7 +239,7 @@ private:
     }
 
     ::asio::any_io_executor ex_;
-    ::asio::ip::tcp::acceptor acceptor_;
+    tcp_listener listener_;
     M& model_;
     modbus_tcp_server_options options_;
     modbus_tcp_server_stats stats_;

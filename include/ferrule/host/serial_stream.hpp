@@ -37,6 +37,25 @@ inline time_point steady_now() noexcept {
         std::chrono::duration_cast<duration>(std::chrono::steady_clock::now().time_since_epoch())};
 }
 
+// Waits with ppoll() until `fd` has something to read (or an error for the read to report):
+// empty then; errc::timeout once `deadline` (steady_now()'s clock) has passed; the system's
+// error when ppoll() fails. An interrupted or early wake-up waits again. The streams below
+// wait this way, with no io_context run and no timer per call.
+inline std::error_code wait_readable(int fd, time_point deadline) noexcept {
+    for (;;) {
+        const duration left = deadline - steady_now();
+        const auto wait =
+            std::clamp<duration>(left, duration::zero(), std::chrono::hours(24)).count();
+        const ::timespec ts{static_cast<::time_t>(wait / 1'000'000'000),
+                            static_cast<long>(wait % 1'000'000'000)};
+        ::pollfd p{fd, POLLIN, 0};
+        const int ready = ::ppoll(&p, 1, &ts, nullptr);
+        if (ready > 0) return {};
+        if (ready < 0 && errno != EINTR) return {errno, std::system_category()};
+        if (ready == 0 && left <= duration::zero()) return make_error_code(errc::timeout);
+    }
+}
+
 enum class direction : std::uint8_t { tx, rx };
 using tap_handler = std::function<void(direction, std::span<const std::uint8_t>, time_point)>;
 
@@ -60,32 +79,21 @@ public:
         return {n, {}};
     }
 
-    // At least one byte, or errc::timeout at the deadline. The wait is a ppoll() on the
-    // port's descriptor, the read one read(): no io_context run and no timer per call (a
-    // Modbus RTU transaction on a pty makes 4 system calls instead of 7, docs/PERFORMANCE.md).
+    // At least one byte, or errc::timeout at the deadline. The wait is wait_readable() on the
+    // port's descriptor, the read one read() (a Modbus RTU transaction on a pty makes 4 system
+    // calls instead of 7, docs/PERFORMANCE.md).
     io_result read_some(std::span<std::uint8_t> in, time_point deadline) {
         if (in.empty()) return {0, {}};
         for (;;) {
-            const duration left = deadline - now();
-            const auto wait =
-                std::clamp<duration>(left, duration::zero(), std::chrono::hours(24)).count();
-            const ::timespec ts{static_cast<::time_t>(wait / 1'000'000'000),
-                                static_cast<long>(wait % 1'000'000'000)};
-            ::pollfd p{port_.native_handle(), POLLIN, 0};
-            const int ready = ::ppoll(&p, 1, &ts, nullptr);
-            if (ready < 0 && errno != EINTR)
-                return {0, std::error_code(errno, std::system_category())};
-            if (ready > 0) {
-                std::error_code ec;
-                const std::size_t got = port_.read_some(::asio::buffer(in.data(), in.size()), ec);
-                if (got > 0) {
-                    if (tap_) tap_(direction::rx, in.first(got), now());
-                    return {got, {}};
-                }
-                if (ec != ::asio::error::would_block && ec != ::asio::error::try_again)
-                    return {0, ec ? ec : make_error_code(errc::transport)};
+            if (const auto ec = wait_readable(port_.native_handle(), deadline)) return {0, ec};
+            std::error_code ec;
+            const std::size_t got = port_.read_some(::asio::buffer(in.data(), in.size()), ec);
+            if (got > 0) {
+                if (tap_) tap_(direction::rx, in.first(got), now());
+                return {got, {}};
             }
-            if (ready == 0 && left <= duration::zero()) return {0, make_error_code(errc::timeout)};
+            if (ec != ::asio::error::would_block && ec != ::asio::error::try_again)
+                return {0, ec ? ec : make_error_code(errc::transport)};
         }
     }
 

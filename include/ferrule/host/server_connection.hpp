@@ -2,7 +2,7 @@
 // MEMOBUS) does the same way beneath its protocol: a non-blocking socket without Nagle's
 // delay, the idle timeout and the request deadline (idle_watch), reading only once all bytes
 // read before are used (so a connection takes no more than its session can hold), and
-// replies through reply_writer.
+// replies through reply_writer. tcp_listener, below, is their listening socket.
 //
 // A connection derives from server_connection<Connection> and gives it
 //     void feed()                  use the bytes of unused() (use(n) each), then call read_on()
@@ -19,15 +19,16 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
 #include <system_error>
 #include <utility>
 
+#include "ferrule/core/time.hpp"
 #include "ferrule/host/idle_watch.hpp"
 #include "ferrule/host/reply_writer.hpp"
-#include "ferrule/core/time.hpp"
 
 namespace ferrule::host {
 
@@ -139,6 +140,52 @@ private:
     bool reading_ = false;
     std::optional<close_reason> ending_;
     reply_writer<::asio::ip::tcp::socket> writer_{socket_};
+};
+
+// The listening socket of ferrule's TCP servers: binds, listens and hands each accepted
+// connection to the server, until close().
+class tcp_listener {
+public:
+    using admit_handler = std::function<void(::asio::ip::tcp::socket)>;
+
+    explicit tcp_listener(::asio::any_io_executor ex) : acceptor_(ex) {}
+
+    // Binds, listens and starts accepting: `admit` gets each connection, on the executor's
+    // thread. Port 0 picks a free port (see port()).
+    std::error_code listen(const ::asio::ip::tcp::endpoint& at, admit_handler admit) {
+        std::error_code ec;
+        acceptor_.open(at.protocol(), ec);
+        if (!ec) acceptor_.set_option(::asio::socket_base::reuse_address(true), ec);
+        if (!ec) acceptor_.bind(at, ec);
+        if (!ec) acceptor_.listen(::asio::socket_base::max_listen_connections, ec);
+        if (ec) return ec;
+        admit_ = std::move(admit);
+        accept();
+        return {};
+    }
+
+    std::uint16_t port() const {
+        std::error_code ec;
+        return acceptor_.local_endpoint(ec).port();
+    }
+
+    // Stops accepting; connections already admitted are the server's to close.
+    void close() {
+        std::error_code ec;
+        acceptor_.close(ec);
+    }
+
+private:
+    void accept() {
+        acceptor_.async_accept([this](std::error_code ec, ::asio::ip::tcp::socket socket) {
+            if (ec == ::asio::error::operation_aborted || !acceptor_.is_open()) return;
+            if (!ec) admit_(std::move(socket));
+            accept();
+        });
+    }
+
+    ::asio::ip::tcp::acceptor acceptor_;
+    admit_handler admit_;
 };
 
 } // namespace ferrule::host

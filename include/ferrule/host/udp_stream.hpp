@@ -3,13 +3,8 @@
 // write() sends one datagram; read_some() hands out the bytes of one datagram, never of two
 // in one call: a datagram longer than the caller's buffer (ferrule::run() reads 64 bytes at a
 // time) is kept and handed out over the next calls. Time is the host's steady clock; the
-// wait is a ppoll() on the socket, as in blocking_stream (serial_stream.hpp).
+// wait is wait_readable() on the socket (serial_stream.hpp), as in blocking_stream.
 #pragma once
-
-#include <poll.h>
-
-#include <cerrno>
-#include <ctime>
 
 #include <asio/io_context.hpp>
 #include <asio/ip/udp.hpp>
@@ -22,10 +17,10 @@
 #include <system_error>
 #include <vector>
 
-#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/core/byte_stream.hpp"
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/time.hpp"
+#include "ferrule/host/serial_stream.hpp"
 
 namespace ferrule::host {
 
@@ -79,27 +74,17 @@ public:
 private:
     std::error_code receive(time_point deadline) {
         for (;;) {
-            const duration left = deadline - now();
-            const auto wait =
-                std::clamp<duration>(left, duration::zero(), std::chrono::hours(24)).count();
-            const ::timespec ts{static_cast<::time_t>(wait / 1'000'000'000),
-                                static_cast<long>(wait % 1'000'000'000)};
-            ::pollfd p{socket_.native_handle(), POLLIN, 0};
-            const int ready = ::ppoll(&p, 1, &ts, nullptr);
-            if (ready < 0 && errno != EINTR) return {errno, std::system_category()};
-            if (ready > 0) {
-                std::error_code ec;
-                const std::size_t got = socket_.receive(::asio::buffer(datagram_), 0, ec);
-                if (ec) return ec;
-                if (got > 0) {
-                    pos_ = 0;
-                    size_ = got;
-                    if (tap_) tap_(direction::rx, std::span(datagram_).first(got), now());
-                    return {};
-                }
-                continue; // an empty datagram carries nothing
+            if (const auto ec = wait_readable(socket_.native_handle(), deadline)) return ec;
+            std::error_code ec;
+            const std::size_t got = socket_.receive(::asio::buffer(datagram_), 0, ec);
+            if (ec) return ec;
+            if (got > 0) {
+                pos_ = 0;
+                size_ = got;
+                if (tap_) tap_(direction::rx, std::span(datagram_).first(got), now());
+                return {};
             }
-            if (ready == 0 && left <= duration::zero()) return errc::timeout;
+            // An empty datagram carries nothing: wait for the next.
         }
     }
 

@@ -134,6 +134,8 @@ public:
     // broadcast; otherwise the cause of the last failed attempt, a ferrule::errc or a
     // lecom::device_errc.
     std::error_code error() const noexcept { return d_.error; }
+    // The finished transaction succeeded: error() is empty.
+    bool succeeded() const noexcept { return !d_.error; }
     // The last reply telegram parsed: for a successful read the data reply (value in
     // reply().value), for a write the ACK.
     const frame& reply() const noexcept { return d_.reply; }

@@ -18,6 +18,8 @@
 //   * bytes that start no message are counted as malformed once per run and skipped; at the
 //     deadline (request sent + response_timeout) the attempt fails with errc::timeout, or
 //     errc::malformed if such garbage came in it
+//   * `fault_threshold` failed attempts in a row (0: never) latch a fault: every start is
+//     refused with errc::fault_latched until reset_fault()
 //   * on_transport_error() ends the transaction with that error
 #pragma once
 
@@ -29,6 +31,7 @@
 #include <system_error>
 
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/fault_latch.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
 #include "ferrule/memobus/constants.hpp"
@@ -41,10 +44,11 @@ namespace ferrule::memobus {
 struct master_config {
     duration response_timeout = std::chrono::seconds(1); // from sending the request
     unsigned retries = 0;                                // resends after the first attempt
-    std::uint8_t cpu = default_cpu;                      // §3.2: destination 1, source 0
-    data_order order = data_order::big_endian;           // SFC 03/04/06/10 data (§3.3, §11.1)
-    bool lenient_response_type = false;                  // accept type 0x11 in responses (§2)
-    std::uint8_t destination_channel = 0;                // 0 from a PC (§2)
+    unsigned fault_threshold = 0;   // failed attempts in a row that latch the fault; 0: never
+    std::uint8_t cpu = default_cpu; // §3.2: destination 1, source 0
+    data_order order = data_order::big_endian; // SFC 03/04/06/10 data (§3.3, §11.1)
+    bool lenient_response_type = false;        // accept type 0x11 in responses (§2)
+    std::uint8_t destination_channel = 0;      // 0 from a PC (§2)
     std::uint8_t source_channel = 0;
 };
 
@@ -71,6 +75,7 @@ public:
     // the count); r.words and r.bits need not outlive the call.
     std::error_code start(const request& r) noexcept {
         if (busy()) return errc::busy;
+        if (latch_.fault_latched()) return errc::fault_latched;
         request q = r;
         q.cpu = cfg_.cpu;
         const auto n =
@@ -130,6 +135,8 @@ public:
     // Outcome of the finished transaction: empty on success, else the cause of the last
     // failed attempt: a ferrule::errc or the controller's memobus::device_category() code.
     std::error_code error() const noexcept { return error_; }
+    // The finished transaction succeeded: error() is empty.
+    bool succeeded() const noexcept { return !error_; }
     // The response of a successful transaction; its raw data spans the session's buffer,
     // valid until the next start().
     const memobus::response& response() const noexcept { return response_; }
@@ -150,6 +157,10 @@ public:
     void clear() noexcept {
         if (state_ == state::done) state_ = state::idle;
     }
+
+    bool fault_latched() const noexcept { return latch_.fault_latched(); }
+    unsigned consecutive_failures() const noexcept { return latch_.consecutive_failures(); }
+    void reset_fault() noexcept { latch_.reset_fault(); }
 
     const master_stats& stats() const noexcept { return stats_; }
     const master_config& config() const noexcept { return cfg_; }
@@ -186,8 +197,7 @@ private:
         if (!parsed) {
             if (parsed.error().category() == device_category()) {
                 ++stats_.device_errors;
-                ++stats_.failed;
-                finish(parsed.error());
+                fail(parsed.error(), false);
                 return;
             }
             ++stats_.malformed;
@@ -195,13 +205,14 @@ private:
             return;
         }
         response_ = *parsed;
+        latch_.succeeded();
         ++stats_.succeeded;
         finish({});
     }
 
-    // An attempt failed: resend while retries are left.
-    void fail(std::error_code ec) noexcept {
-        if (attempts_ <= cfg_.retries) {
+    // An attempt failed: resend while retries are left (a controller error is not resent).
+    void fail(std::error_code ec, bool may_retry = true) noexcept {
+        if (latch_.retry(attempts_, cfg_.retries, cfg_.fault_threshold, may_retry)) {
             error_ = ec; // the cause so far, replaced by the final outcome
             state_ = state::pending_send;
             return;
@@ -226,6 +237,7 @@ private:
     time_point deadline_{};
     stored_error error_{};
     unsigned attempts_ = 0;
+    fault_latch latch_{};
     std::uint8_t next_serial_ = 0;
     bool garbage_ = false; // bytes that start no message in this attempt
 };

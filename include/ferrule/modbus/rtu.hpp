@@ -43,6 +43,50 @@ inline result<std::size_t> encode_rtu(std::uint8_t address, std::span<const std:
     return seal_rtu(address, out.data(), pdu.size());
 }
 
+enum class rtu_frames : std::uint8_t { responses, requests, either };
+
+namespace detail {
+// RTU framing by length, once for rtu_decoder and rtu_receiver. It looks at the bytes
+// on.buffered() (the front of a receive buffer) and tells `on` what they start with, until it
+// needs more bytes (true) or `on` says stop (false):
+//     bool on.garbage()        the first byte starts no frame: drop it
+//     bool on.bad_crc()        the first byte starts a frame whose CRC fails: drop it
+//     bool on.frame(n)         the first n bytes are a frame
+// each returning whether to go on. `length` is the PDU length the function code predicts
+// (0: need more bytes; no_frame: the bytes start no frame).
+template <class On, class Length>
+constexpr bool scan_rtu(On& on, bool requests, Length length) noexcept {
+    while (on.buffered().size() >= 2) {
+        const std::size_t n = length(on.buffered().subspan(1));
+        if (n == 0) return true;
+        if (n == no_frame) {
+            // A request of an unknown function code waits for the silence after it
+            // (whole_at_silence()), as long as it can still fit an ADU.
+            if (requests && on.buffered().size() < max_rtu_adu) return true;
+            if (!on.garbage()) return false;
+            continue;
+        }
+        if (on.buffered().size() < n + 3) return true;
+        if (crc16_modbus(on.buffered().first(n + 3)) != 0) {
+            if (!on.bad_crc()) return false;
+            continue;
+        }
+        if (!on.frame(n + 3)) return false;
+    }
+    return true;
+}
+
+// At the silence after them (SL §2.5.1.1), all buffered bytes are one request when its
+// function code cannot be framed by length and its CRC checks (the server answers it with
+// exception 01).
+template <class Length>
+constexpr bool whole_at_silence(std::span<const std::uint8_t> buf, bool requests,
+                                Length length) noexcept {
+    return requests && buf.size() >= 4 && length(buf.subspan(1)) == no_frame &&
+           crc16_modbus(buf) == 0;
+}
+} // namespace detail
+
 // Splits a byte stream into RTU frames. Feed it with
 //     do { s = d.feed(in); in = in.subspan(s.consumed); … } while (s.what != status::need_more);
 // need_more means every byte given is used and no frame is complete; after an error the
@@ -54,7 +98,6 @@ inline result<std::size_t> encode_rtu(std::uint8_t address, std::span<const std:
 // made (tools that read a whole bus). A client's decoder is basic_rtu_decoder<Fs,
 // rtu_frames::responses>: it frames only responses, and only those of the functions in Fs
 // (see function_set); a server's frames only requests. Firmware then carries no other.
-enum class rtu_frames : std::uint8_t { responses, requests, either };
 
 template <function_set Fs = all_functions, rtu_frames Frames = rtu_frames::either>
 class basic_rtu_decoder : public frame_scanner<basic_rtu_decoder<Fs, Frames>, max_rtu_adu> {
@@ -64,9 +107,7 @@ class basic_rtu_decoder : public frame_scanner<basic_rtu_decoder<Fs, Frames>, ma
     using base::drop_failed;
     using base::drop_garbage;
     using base::frame_size_;
-    using base::garbage_;
     using base::size_;
-    using base::take_frame;
     using base::view;
     using base::yield;
 
@@ -85,21 +126,7 @@ public:
     // behind a broken one is still found. In requests mode, buffered bytes of a function
     // code that cannot be framed by length are a frame when their CRC checks (the server
     // can answer it with exception 01).
-    step finish() noexcept {
-        take_frame();
-        for (;;) {
-            const step s = scan();
-            if (s.what != status::need_more) return s;
-            if (size_ == 0) break;
-            const auto pdu = std::span<const std::uint8_t>(buf_.data() + 1, size_ - 1);
-            if (requests() && size_ >= 4 && expected_request_length(pdu) == no_frame &&
-                crc16_modbus(view(size_)) == 0)
-                return yield(size_);
-            if (drop_garbage()) return {status::error, 0, errc::malformed};
-        }
-        garbage_ = false;
-        return {};
-    }
+    step finish() noexcept { return base::drain(); }
 
     // The frame just yielded (valid until the next feed(), finish() or reset()).
     std::uint8_t address() const noexcept { return frame_size_ ? buf_[0] : std::uint8_t{0}; }
@@ -110,6 +137,11 @@ public:
     std::span<const std::uint8_t> adu() const noexcept { return {buf_.data(), frame_size_}; }
 
 private:
+    // At the silence, a request of a function code that cannot be framed by length.
+    bool whole_at_silence() const noexcept {
+        return detail::whole_at_silence(view(size_), requests(), length_of());
+    }
+
     constexpr bool requests() const noexcept {
         if constexpr (Frames == rtu_frames::either)
             return accept_ == accept::requests;
@@ -119,27 +151,35 @@ private:
 
     // Looks at the buffered bytes until a frame, a reported error, or the need for more.
     step scan() noexcept {
-        for (;;) {
-            if (size_ < 2) return {};
-            const auto pdu = std::span<const std::uint8_t>(buf_.data() + 1, size_ - 1);
-            const std::size_t len =
-                requests() ? expected_request_length(pdu) : response_length(pdu);
-            if (len == 0) return {};
-            if (len == no_frame) {
-                // A request of an unknown function code waits for finish() (the silence after
-                // it), as long as it can still fit an ADU.
-                if (requests() && size_ < max_rtu_adu) return {};
-                if (drop_garbage()) return {status::error, 0, errc::malformed};
-                continue;
+        // Each event ends the scan with its step, but a run of garbage reported already.
+        struct on_event {
+            basic_rtu_decoder& d;
+            step s{};
+            std::span<const std::uint8_t> buffered() const noexcept { return d.view(d.size_); }
+            bool garbage() noexcept {
+                if (!d.drop_garbage()) return true;
+                s = {status::error, 0, errc::malformed};
+                return false;
             }
-            const std::size_t total = len + 3;
-            if (size_ < total) return {};
-            if (crc16_modbus(view(total)) != 0) {
-                drop_failed();
-                return {status::error, 0, errc::bad_checksum};
+            bool bad_crc() noexcept {
+                d.drop_failed();
+                s = {status::error, 0, errc::bad_checksum};
+                return false;
             }
-            return yield(total);
-        }
+            bool frame(std::size_t n) noexcept {
+                s = d.yield(n);
+                return false;
+            }
+        } on{*this};
+        detail::scan_rtu(on, requests(), length_of());
+        return on.s;
+    }
+
+    // The PDU length rule of this decoder's mode.
+    auto length_of() const noexcept {
+        return [requests = requests()](std::span<const std::uint8_t> pdu) {
+            return requests ? expected_request_length(pdu) : response_length(pdu);
+        };
     }
 
     // Responses of the public function codes outside `function` too: rtu_decoder, for tools
@@ -183,7 +223,7 @@ public:
     template <class H>
     void finish(H& h) noexcept {
         while (size_ > 0) {
-            if (requests && size_ >= 4 && length() == no_frame && crc16_modbus(view(size_)) == 0) {
+            if (detail::whole_at_silence(view(size_), requests, length)) {
                 if (!frame(size_, h)) return;
                 continue;
             }
@@ -200,34 +240,37 @@ private:
 
     std::span<const std::uint8_t> view(std::size_t n) const noexcept { return {buf_.data(), n}; }
     // The PDU's length from its first bytes: 0 = need more, no_frame = cannot be framed.
-    std::size_t length() const noexcept {
-        const std::span<const std::uint8_t> pdu(buf_.data() + 1, size_ - 1);
+    // A lambda, not a function: its own type keeps each receiver's framing inline.
+    static constexpr auto length = [](std::span<const std::uint8_t> pdu) noexcept {
         if constexpr (requests)
             return expected_request_length(pdu);
         else
             return expected_response_length<Fs, false>(pdu);
-    }
+    };
 
     // False when the session stopped at a frame.
     template <class H>
     bool scan(H& h) noexcept {
-        while (size_ >= 2) {
-            const std::size_t n = length();
-            if (n == 0) return true;
-            if (n == no_frame) {
-                if (requests && size_ < buf_.size()) return true;
-                drop(errc::malformed, h);
-                continue;
-            }
-            if (size_ < n + 3) return true;
-            if (crc16_modbus(view(n + 3)) != 0) {
-                drop(errc::bad_checksum, h);
-                continue;
-            }
-            if (!frame(n + 3, h)) return false;
-        }
-        return true;
+        scan_with<H> on{*this, h};
+        return detail::scan_rtu(on, requests, length);
     }
+
+    // Each event goes to the session at once; only a frame it does not take stops the scan.
+    template <class H>
+    struct scan_with {
+        rtu_receiver& r;
+        H& h;
+        std::span<const std::uint8_t> buffered() const noexcept { return r.view(r.size_); }
+        bool garbage() noexcept {
+            r.drop(errc::malformed, h);
+            return true;
+        }
+        bool bad_crc() noexcept {
+            r.drop(errc::bad_checksum, h);
+            return true;
+        }
+        bool frame(std::size_t n) noexcept { return r.frame(n, h); }
+    };
 
     template <class H>
     bool frame(std::size_t n, H& h) noexcept {

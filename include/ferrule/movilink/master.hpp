@@ -19,6 +19,7 @@
 #include <system_error>
 
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/fault_latch.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
@@ -138,6 +139,8 @@ public:
     // Outcome of the finished transaction: empty on success; errc::no_response_expected
     // for group / broadcast; a ferrule::errc or a movilink::device_category() code.
     std::error_code error() const noexcept { return error_; }
+    // The finished transaction succeeded: error() is empty.
+    bool succeeded() const noexcept { return !error_; }
     // The drive's reply (valid when error() is empty).
     const telegram& reply() const noexcept { return reply_; }
     // Requests sent for the finished transaction, not counting handshake repeats.
@@ -151,12 +154,9 @@ public:
         if (state_ == state::done) state_ = state::idle;
     }
 
-    bool fault_latched() const noexcept { return latched_; }
-    unsigned consecutive_failures() const noexcept { return consecutive_failures_; }
-    void reset_fault() noexcept {
-        latched_ = false;
-        consecutive_failures_ = 0;
-    }
+    bool fault_latched() const noexcept { return latch_.fault_latched(); }
+    unsigned consecutive_failures() const noexcept { return latch_.consecutive_failures(); }
+    void reset_fault() noexcept { latch_.reset_fault(); }
 
     const master_stats& stats() const noexcept { return stats_; }
     const master_config& config() const noexcept { return cfg_; }
@@ -169,7 +169,7 @@ private:
     std::error_code start(std::uint8_t address, pdu_type type, param_channel param,
                           std::span<const std::uint16_t> po, bool param_job) noexcept {
         if (busy()) return errc::busy;
-        if (latched_) return errc::fault_latched;
+        if (latch_.fault_latched()) return errc::fault_latched;
         const auto kind = kind_of(address);
         if (kind == address_kind::undefined || kind == address_kind::local)
             return errc::invalid_argument;
@@ -262,7 +262,7 @@ private:
             fail_attempt(make_device_error(t.param), cfg_.retry_device_errors);
             return;
         }
-        consecutive_failures_ = 0;
+        latch_.succeeded();
         ++stats_.succeeded;
         finish({});
     }
@@ -272,10 +272,7 @@ private:
             ++stats_.timeouts;
         else if (ec.category() != device_category())
             ++stats_.invalid_replies;
-        ++consecutive_failures_;
-        if (cfg_.fault_threshold != 0 && consecutive_failures_ >= cfg_.fault_threshold)
-            latched_ = true;
-        if (!latched_ && may_retry && attempts_ <= cfg_.retries) {
+        if (latch_.retry(attempts_, cfg_.retries, cfg_.fault_threshold, may_retry)) {
             handshake_polling_ = false;
             state_ = state::pending_send;
             error_ = ec; // the cause so far, replaced by the final outcome
@@ -316,8 +313,7 @@ private:
     stored_error error_{};
     unsigned attempts_ = 0;
     unsigned handshake_polls_ = 0;
-    unsigned consecutive_failures_ = 0;
-    bool latched_ = false;
+    fault_latch latch_{};
     bool param_job_ = false;
     bool handshake_polling_ = false;
     std::array<std::uint8_t, 32> handshake_{}; // one bit per address

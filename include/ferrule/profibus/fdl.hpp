@@ -129,17 +129,7 @@ public:
     // The line has been idle (a telegram has no gaps inside, §B.1): what is buffered will not
     // be completed. Call like feed() until need_more; drops bytes until a telegram or nothing
     // is left.
-    step finish() noexcept {
-        take_frame();
-        for (;;) {
-            const step s = scan();
-            if (s.what != status::need_more) return s;
-            if (size_ == 0) break;
-            if (drop_garbage()) return {status::error, 0, errc::malformed};
-        }
-        garbage_ = false;
-        return {};
-    }
+    step finish() noexcept { return drain(); }
 
     // The telegram just yielded; its data spans the decoder's buffer (valid until the next
     // feed(), finish() or reset()).

@@ -197,6 +197,8 @@ public:
     // Global_Control; otherwise the cause of the last failed attempt, a ferrule::errc or a
     // profibus::device_category() error.
     std::error_code error() const noexcept { return error_; }
+    // The finished transaction succeeded: error() is empty.
+    bool succeeded() const noexcept { return !error_; }
     // The data unit (SAP bytes excluded) of the last successful reply: diagnosis, cfg bytes,
     // inputs; empty for a short acknowledgement. Valid until the next start.
     std::span<const std::uint8_t> reply_data() const noexcept { return {rx_.data(), rx_size_}; }

@@ -39,6 +39,7 @@
 #include "ferrule/dimetix/command.hpp"
 #include "ferrule/dimetix/constants.hpp"
 #include "ferrule/dimetix/line.hpp"
+#include "ferrule/dimetix/reply_encoder.hpp"
 
 namespace ferrule::dimetix::sim {
 
@@ -259,8 +260,8 @@ private:
             if (c.params[0] == 0) {
                 if (injected()) return error(take_injected(), measured);
                 begin_line();
-                put_head("m");
-                put_value(cfg_.signal, 8);
+                out_.put_mnemonic("m");
+                out_.put_value(cfg_.signal, 8);
                 return finish_line(measured);
             }
             mode_ = mode::signal;
@@ -279,15 +280,15 @@ private:
         if (m == "q") return buffer_line(now, soon);
         if (m == "t") {
             begin_line();
-            put_head("t");
-            put_value(cfg_.temperature, 8);
+            out_.put_mnemonic("t");
+            out_.put_value(cfg_.temperature, 8);
             return finish_line(soon);
         }
         if (m == "re") {
             begin_line();
-            put_head("re");
-            if (stack_size_ == 0) put_value(0, 3);
-            for (std::size_t i = 0; i < stack_size_; ++i) put_value(stack_[i], 3);
+            out_.put_mnemonic("re");
+            if (stack_size_ == 0) out_.put_value(0, 3);
+            for (std::size_t i = 0; i < stack_size_; ++i) out_.put_value(stack_[i], 3);
             return finish_line(soon);
         }
         if (m == "ce") {
@@ -325,9 +326,9 @@ private:
         if (m == "dt") return info("dt", d_series_device_type, 4, soon);
         if (m == "dg") {
             begin_line();
-            put_head("dg");
-            put_value(d_series_generation, 3);
-            put_value(comm_, 2);
+            out_.put_mnemonic("dg");
+            out_.put_value(d_series_generation, 3);
+            out_.put_value(comm_, 2);
             return finish_line(soon);
         }
         configure(c, soon);
@@ -343,17 +344,17 @@ private:
         const std::size_t get_params = selected ? 1 : 0;
         if (c.param_count == get_params) {
             begin_line();
-            put_head(m);
+            out_.put_mnemonic(m);
             for (std::size_t i = 0; i < e->count; ++i)
-                put_value(e->values[i], selected && i == 0 ? 1 : e->width);
+                out_.put_value(e->values[i], selected && i == 0 ? 1 : e->width);
             return finish_line(at);
         }
         if (!in_range(c)) return error(203, at);
         for (std::size_t i = 0; i < c.param_count; ++i) e->values[i] = c.params[i];
         begin_line();
-        put_head(m);
-        if (selected) put_value(selector, 1);
-        put('?');
+        out_.put_mnemonic(m);
+        if (selected) out_.put_value(selector, 1);
+        out_.put_ack();
         finish_line(at);
     }
 
@@ -409,7 +410,7 @@ private:
     void measurement_line(std::string_view m, time_point due) noexcept {
         if (injected()) return error(take_injected(), due);
         begin_line();
-        put_head(m);
+        out_.put_mnemonic(m);
         put_measurement(due);
         finish_line(due);
     }
@@ -421,22 +422,22 @@ private:
             const entry* gain = find("uga", 0);
             d = (d + find("uof", 0)->values[0]) * gain->values[0] / gain->values[1];
         }
-        put_value(static_cast<std::int32_t>(d), 8);
+        out_.put_value(static_cast<std::int32_t>(d), 8);
         if (format >= 300) {
-            put_value(cfg_.signal, 6);
-            put_value(cfg_.temperature, 3);
+            out_.put_value(cfg_.signal, 6);
+            out_.put_value(cfg_.temperature, 3);
         }
         if (format == 301) {
             // mm/s from the profile over the last 10 ms: 0.1 mm per 10 ms = 10 mm/s.
-            put_value((distance_at(t) - distance_at(t - 10ms)) * 10, 6);
+            out_.put_value((distance_at(t) - distance_at(t - 10ms)) * 10, 6);
         }
     }
 
     void buffer_line(time_point now, time_point due) noexcept {
         if (mode_ != mode::buffered) { // S1 §8.2.6: only with tracking with buffering
             begin_line();
-            put_error(210);
-            put_value(0, 1);
+            out_.put_error(210);
+            out_.put_value(0, 1);
             return finish_line(due);
         }
         const std::int64_t taken =
@@ -448,14 +449,14 @@ private:
         const int status = fresh == 0 ? 0 : fresh == 1 ? 1 : 2;
         begin_line();
         if (injected()) {
-            put_error(take_injected());
+            out_.put_error(take_injected());
         } else {
-            put_head("q");
+            out_.put_mnemonic("q");
             const time_point last =
                 buffer_start_ + cfg_.measurement_time + (taken > 0 ? taken - 1 : 0) * interval_;
-            put_value(static_cast<std::int32_t>(taken > 0 ? measured_at(last) : 0), 8);
+            out_.put_value(static_cast<std::int32_t>(taken > 0 ? measured_at(last) : 0), 8);
         }
-        put_value(status, 1);
+        out_.put_value(status, 1);
         finish_line(due);
     }
 
@@ -482,12 +483,12 @@ private:
             error(take_injected(), at);
         } else if (mode_ == mode::signal) {
             begin_line();
-            put_head("m");
-            put_value(cfg_.signal, 8);
+            out_.put_mnemonic("m");
+            out_.put_value(cfg_.signal, 8);
             finish_line(at);
         } else {
             begin_line();
-            put_head("h");
+            out_.put_mnemonic("h");
             put_measurement(at);
             finish_line(at);
         }
@@ -509,71 +510,41 @@ private:
     // --- answer text ---------------------------------------------------------------------
     void ack(time_point at) noexcept {
         begin_line();
-        put('?');
+        out_.put_ack();
         finish_line(at);
     }
     void set_ack(std::string_view m, time_point at) noexcept {
         begin_line();
-        put_head(m);
-        put('?');
+        out_.put_mnemonic(m);
+        out_.put_ack();
         finish_line(at);
     }
     void error(int code, time_point at) noexcept {
         begin_line();
-        put_error(code);
+        out_.put_error(code);
         finish_line(at);
     }
     void info(std::string_view m, std::int32_t v, std::size_t width, time_point at) noexcept {
         begin_line();
-        put_head(m);
-        put_value(v, width);
+        out_.put_mnemonic(m);
+        out_.put_value(v, width);
         finish_line(at);
     }
 
-    void begin_line() noexcept {
-        out_.size = 0;
-        put('g');
-        if (id_ >= 10) put(static_cast<std::uint8_t>('0' + id_ / 10));
-        put(static_cast<std::uint8_t>('0' + id_ % 10));
-    }
-    void put(std::uint8_t c) noexcept {
-        if (out_.size < out_.text.size() - 2) out_.text[out_.size++] = c;
-    }
-    void put_head(std::string_view m) noexcept {
-        for (char c : m) put(static_cast<std::uint8_t>(c));
-    }
-    void put_error(int code) noexcept {
-        put('@');
-        put('E');
-        put(static_cast<std::uint8_t>('0' + code / 100 % 10));
-        put(static_cast<std::uint8_t>('0' + code / 10 % 10));
-        put(static_cast<std::uint8_t>('0' + code % 10));
-    }
-    // Sign, then at least `width` digits (S1 ch.8 placeholders: +aaaaaaaa).
-    void put_value(std::int32_t v, std::size_t width) noexcept {
-        put(v < 0 ? '-' : '+');
-        std::uint32_t mag =
-            v < 0 ? 0u - static_cast<std::uint32_t>(v) : static_cast<std::uint32_t>(v);
-        std::array<std::uint8_t, 10> d{};
-        std::size_t n = 0;
-        do {
-            d[n++] = static_cast<std::uint8_t>('0' + mag % 10);
-            mag /= 10;
-        } while (mag != 0);
-        for (std::size_t i = n; i < width; ++i) put('0');
-        while (n > 0) put(d[--n]);
-    }
+    void begin_line() noexcept { out_.begin(id_); }
     void finish_line(time_point due) noexcept {
-        out_.text[out_.size++] = cr;
-        out_.text[out_.size++] = lf;
-        out_.due = due;
         if (queue_size_ == queue_capacity) return; // transmit buffer full: dropped
+        const auto text = out_.finish();
+        line l;
+        l.due = due;
+        l.size = static_cast<std::uint8_t>(text.size());
+        std::copy(text.begin(), text.end(), l.text.begin());
         // Keep the queue in due order (a stop's acknowledge after the queued lines).
         std::size_t at = queue_size_;
         while (at > 0 && queue_[at - 1].due > due) --at;
         std::move_backward(queue_.begin() + at, queue_.begin() + queue_size_,
                            queue_.begin() + queue_size_ + 1);
-        queue_[at] = out_;
+        queue_[at] = l;
         ++queue_size_;
     }
 
@@ -597,7 +568,7 @@ private:
     std::array<std::uint16_t, stack_capacity> stack_{};
     std::size_t stack_size_ = 0;
     line_decoder decoder_{};
-    line out_{};
+    reply_encoder out_{};
     std::array<line, queue_capacity> queue_{};
     std::size_t queue_size_ = 0;
     std::array<std::uint8_t, max_line_length> tx_{};
