@@ -173,7 +173,7 @@ std::string prm_text(const pb::prm_data& p) {
 }
 
 // After Set_Prm or Chk_Cfg: the slave's verdict, from its diagnosis.
-std::error_code verdict(context& c, std::uint8_t fault, pb::device_error error) {
+std::error_code verdict(context& c, std::uint8_t fault, pb::device_errc error) {
     pb::slave_diag d;
     if (auto ec = pb::read_slave_diag(c.line(), c.master, c.slave(), d)) return ec;
     if (d.status1 & fault) return error;
@@ -187,7 +187,7 @@ int cmd_set_prm(context& c) {
     if (c.o.common.dry_run) return print_request(c, c.master.start_set_prm(c.slave(), p));
     if (!open_port(c)) return exit_transport;
     if (auto ec = pb::set_prm(c.line(), c.master, c.slave(), p)) return fail(c, "Set_Prm", ec);
-    if (auto ec = verdict(c, pb::diag::prm_fault, pb::device_error::prm_fault))
+    if (auto ec = verdict(c, pb::diag::prm_fault, pb::device_errc::prm_fault))
         return fail(c, "Set_Prm", ec);
     nlohmann::json j{
         {"ok", true},
@@ -226,7 +226,7 @@ int cmd_chk_cfg(context& c) {
     if (c.o.common.dry_run) return print_request(c, c.master.start_chk_cfg(c.slave(), cfg));
     if (!open_port(c)) return exit_transport;
     if (auto ec = pb::chk_cfg(c.line(), c.master, c.slave(), cfg)) return fail(c, "Chk_Cfg", ec);
-    if (auto ec = verdict(c, pb::diag::cfg_fault, pb::device_error::cfg_fault))
+    if (auto ec = verdict(c, pb::diag::cfg_fault, pb::device_errc::cfg_fault))
         return fail(c, "Chk_Cfg", ec);
     nlohmann::json j = cfg_json(cfg);
     j["ok"] = true;

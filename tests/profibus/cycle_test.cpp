@@ -103,7 +103,7 @@ TEST_CASE("profibus master cycle keeps a slave with the wrong ident out, the oth
     line3 l(0x0C01); // the master expects 0x0C01; slave 7 is 0x0C00
     CHECK(l.pass() == 2);
     CHECK_FALSE(l.slaves[2].exchanging);
-    CHECK(l.slaves[2].last_error == pb::device_error::prm_fault);
+    CHECK(l.slaves[2].last_error == pb::device_errc::prm_fault);
     CHECK((l.bus[2].diagnosis().status1 & pb::diag::prm_fault) != 0);
     // Not tried again before retry_after.
     const auto tries = l.slaves[2].bring_ups;

@@ -369,7 +369,7 @@ TEST_CASE("profibus master: RS is the slave's answer, a device error, not retrie
     REQUIRE_FALSE(read_slave_diag(line, m, 8, d));
     std::array<std::uint8_t, 2> in{};
     const std::error_code ec = data_exchange(line, m, 8, out_1234, in);
-    CHECK(ec == device_error::sap_not_active);
+    CHECK(ec == device_errc::sap_not_active);
     CHECK(ec.category() == device_category());
     CHECK(ec.message() == "slave: SAP not activated (RS)");
     CHECK(m.response_fn() == response_fn::sap_not_active);
@@ -487,7 +487,7 @@ TEST_CASE("profibus master bring_up reports a slave that stays not ready", "[pro
     ferrule::script_peer peer(steps);
     mock_serial line(f19200, &peer);
     master m;
-    CHECK(bring_up(line, m, 8, golden_prm(), cfg_2in_2out, 2) == device_error::not_ready);
+    CHECK(bring_up(line, m, 8, golden_prm(), cfg_2in_2out, 2) == device_errc::not_ready);
     CHECK(peer.mismatches() == 0);
     CHECK(peer.finished());
 }
@@ -506,13 +506,13 @@ TEST_CASE("profibus master refuses bad requests and a second start", "[profibus]
 }
 
 TEST_CASE("profibus device_category messages", "[profibus][master]") {
-    CHECK(std::error_code(device_error::user_error).message() == "slave: user error (UE)");
-    CHECK(std::error_code(device_error::no_resource).message() ==
+    CHECK(std::error_code(device_errc::user_error).message() == "slave: user error (UE)");
+    CHECK(std::error_code(device_errc::no_resource).message() ==
           "slave: no resources for the request (RR)");
-    CHECK(std::error_code(device_error::no_response_data).message() ==
+    CHECK(std::error_code(device_errc::no_response_data).message() ==
           "slave: no response data (NR)");
     CHECK(std::string(device_category().name()) == "profibus");
-    CHECK(response_error(response_fn::no_resource) == device_error::no_resource);
+    CHECK(response_error(response_fn::no_resource) == device_errc::no_resource);
     CHECK_FALSE(response_error(response_fn::data_low));
 }
 

@@ -86,8 +86,8 @@ std::error_code send_global_control(S& stream, master& m, const global_control& 
 
 // The master's start-up of slave `da` (§B.6): FDL_Status → Slave_Diag → Set_Prm → Chk_Cfg →
 // Slave_Diag until ready() (at most diag_polls times). The slave's FCB starts over
-// (reset_fcb). Returns the first error; after the polls device_error::prm_fault or cfg_fault
-// when the last diagnosis says so, else device_error::not_ready while it is not ready.
+// (reset_fcb). Returns the first error; after the polls device_errc::prm_fault or cfg_fault
+// when the last diagnosis says so, else device_errc::not_ready while it is not ready.
 template <session_stream S>
 std::error_code bring_up(S& stream, master& m, std::uint8_t da, const prm_data& p,
                          std::span<const std::uint8_t> cfg, unsigned diag_polls = 10) {
@@ -101,9 +101,9 @@ std::error_code bring_up(S& stream, master& m, std::uint8_t da, const prm_data& 
         if (auto ec = read_slave_diag(stream, m, da, d)) return ec;
         if (d.ready()) return {};
     }
-    if (d.status1 & diag::prm_fault) return device_error::prm_fault;
-    if (d.status1 & diag::cfg_fault) return device_error::cfg_fault;
-    return device_error::not_ready;
+    if (d.status1 & diag::prm_fault) return device_errc::prm_fault;
+    if (d.status1 & diag::cfg_fault) return device_errc::cfg_fault;
+    return device_errc::not_ready;
 }
 
 } // namespace ferrule::profibus
