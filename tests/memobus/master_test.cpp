@@ -240,7 +240,7 @@ TEST_CASE("memobus master sends the golden requests, serial counting up", "[memo
     CHECK_FALSE(m.bit(1));
     CHECK(m.bit(2));
     CHECK(m.bit(9));
-    CHECK(m.response().cpu == 0x12);
+    CHECK(m.reply().cpu == 0x12);
     REQUIRE_FALSE(transact(line, m, make(sfc::read_holding_registers, 100, 2)));
     CHECK(m.word(0) == 0x1234); // big-endian, the default (§3.3)
     CHECK(m.word(1) == 0xABCD);
