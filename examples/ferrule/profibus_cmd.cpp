@@ -239,7 +239,7 @@ int cmd_get_cfg(context& c) {
     if (c.o.common.dry_run) return print_request(c, c.master.start_get_cfg(c.slave()));
     if (!open_port(c)) return exit_transport;
     if (auto ec = pb::get_cfg(c.line(), c.master, c.slave())) return fail(c, "Get_Cfg", ec);
-    const auto cfg = c.master.reply_data();
+    const auto cfg = c.master.reply();
     nlohmann::json j = cfg_json(cfg);
     j["ok"] = true;
     j["slave"] = c.slave();
@@ -261,7 +261,7 @@ int bring_up(context& c, std::vector<std::uint8_t>& cfg) {
     }
     if (cfg.empty()) {
         if (auto ec = pb::get_cfg(c.line(), c.master, c.slave())) return fail(c, "Get_Cfg", ec);
-        const auto r = c.master.reply_data();
+        const auto r = c.master.reply();
         cfg.assign(r.begin(), r.end());
     }
     std::vector<std::uint8_t> user;
@@ -300,7 +300,7 @@ int cmd_exchange(context& c) {
         auto ec = c.master.start_data_exchange(c.slave(), out);
         if (!ec) ec = run(c.line(), c.master);
         if (ec) return fail(c, "Data_Exchange", ec);
-        const auto in = c.master.reply_data();
+        const auto in = c.master.reply();
         const bool dh = c.master.data_high();
         nlohmann::json j{{"ok", true},          {"slave", c.slave()}, {"cycle", i + 1},
                          {"outputs", hex(out)}, {"inputs", hex(in)},  {"data_high", dh}};

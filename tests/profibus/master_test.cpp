@@ -159,7 +159,7 @@ TEST_CASE("profibus master FDL_Status: golden request without FCB, SD1 reply, wi
     CHECK(as_bytes(m.request_bytes()) == fdl_status_req);
     CHECK(m.response_fn() == response_fn::ok);
     CHECK(m.reply_frame() == frame::sd1);
-    CHECK(m.reply_data().empty());
+    CHECK(m.reply().empty());
     CHECK(line.now() == time_point{} + f19200.chars_time(6) + tsdr + f19200.chars_time(6));
     CHECK(m.stats().transactions == 1);
     CHECK(m.stats().succeeded == 1);
@@ -248,7 +248,7 @@ TEST_CASE("profibus master Data_Exchange alternates 0x5D / 0x7D; SD3 for 8 outpu
     // A slave without inputs answers with the short acknowledgement (§B.5).
     REQUIRE_FALSE(data_exchange(line, m, 8, out8, std::span<std::uint8_t>{}));
     CHECK(as_bytes(m.request_bytes()) == dx8_req_5d);
-    CHECK(m.reply_data().empty());
+    CHECK(m.reply().empty());
     in = {};
     REQUIRE_FALSE(data_exchange(line, m, 8, out_1234, in));
     CHECK(in == std::array<std::uint8_t, 2>{0xAB, 0xCD});
@@ -353,7 +353,7 @@ TEST_CASE("profibus master accepts an 8-byte data unit as SD2 and as SD3", "[pro
         CHECK(d.ident == 0x0815);
         CHECK(d.ext.empty());
         CHECK_FALSE(d.ready());
-        CHECK(as_bytes(m.reply_data()) == bytes{0x02, 0x05, 0x00, 0xFF, 0x08, 0x15});
+        CHECK(as_bytes(m.reply()) == bytes{0x02, 0x05, 0x00, 0xFF, 0x08, 0x15});
     }
     CHECK(peer.mismatches() == 0);
 }
@@ -398,7 +398,7 @@ TEST_CASE("profibus master: a reply from another station is unexpected_address",
     std::array<std::uint8_t, 2> in{};
     CHECK(data_exchange(line, m, 8, out_1234, in) == errc::unexpected_address);
     CHECK(in == std::array<std::uint8_t, 2>{});
-    CHECK(m.reply_data().empty());
+    CHECK(m.reply().empty());
     CHECK(m.stats().unexpected_addresses == 1);
     CHECK(m.stats().failed == 1);
     CHECK(peer.mismatches() == 0);
@@ -475,7 +475,7 @@ TEST_CASE("profibus master Get_Cfg returns the configuration bytes", "[profibus]
     mock_serial line(f19200, &peer);
     master m;
     REQUIRE_FALSE(get_cfg(line, m, 8));
-    CHECK(as_bytes(m.reply_data()) == bytes{0x11, 0x21});
+    CHECK(as_bytes(m.reply()) == bytes{0x11, 0x21});
     CHECK(peer.mismatches() == 0);
 }
 

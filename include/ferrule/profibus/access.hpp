@@ -55,7 +55,7 @@ std::error_code chk_cfg(S& stream, master& m, std::uint8_t da, std::span<const s
     return detail::transact(stream, m, m.start_chk_cfg(da, cfg));
 }
 
-// Get_Cfg (SAP 59): the slave's configuration identifiers, in m.reply_data().
+// Get_Cfg (SAP 59): the slave's configuration identifiers, in m.reply().
 template <session_stream S>
 std::error_code get_cfg(S& stream, master& m, std::uint8_t da) {
     return detail::transact(stream, m, m.start_get_cfg(da));
@@ -68,7 +68,7 @@ std::error_code data_exchange(S& stream, master& m, std::uint8_t da,
                               std::span<const std::uint8_t> outputs,
                               std::span<std::uint8_t> inputs_out) {
     if (auto ec = detail::transact(stream, m, m.start_data_exchange(da, outputs))) return ec;
-    const auto in = m.reply_data();
+    const auto in = m.reply();
     if (in.size() != inputs_out.size()) return errc::malformed;
     for (std::size_t i = 0; i < in.size(); ++i) inputs_out[i] = in[i];
     return {};
