@@ -123,7 +123,7 @@ void BM_sensor_measurement(benchmark::State& state) {
         s.on_receive(answer, now + 1ms);
         const auto done = s.next(now + 1ms);
         if (done.what != session_action::kind::done || s.error() ||
-            s.last_reply().values[0] != 1234) {
+            s.reply().values[0] != 1234) {
             state.SkipWithError("measurement did not succeed");
             break;
         }
