@@ -47,8 +47,9 @@ TEST_CASE("every protocol names its device error enum device_errc", "[core][erro
           "drive error class 8 (other), code 0, additional code 0x0012: read access only");
     check_device_errc(ml::device_errc::data_length, ml::device_category(),
                       ml::make_device_error(ml::error_data(6, 8, 0)));
-    CHECK(std::error_code(ml::device_errc::data_length).message().ends_with(
-        "data length is not 4 bytes"));
+    CHECK(std::error_code(ml::device_errc::data_length)
+              .message()
+              .ends_with("data length is not 4 bytes"));
 
     // Dimetix: gN@E255.
     check_device_errc(dx::device_errc::signal_too_low, dx::device_category(),

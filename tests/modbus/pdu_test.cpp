@@ -434,8 +434,7 @@ TEST_CASE("modbus function sets: only the functions named are encoded, parsed an
     const bytes two{0x03, 0x04, 0x00, 0x01, 0x00, 0x02};
     REQUIRE(parse_response<fs>(read, two));
     CHECK(parse_response<fs>(read, two)->data.size() == 4);
-    CHECK(parse_response<fs>(read, bytes{0x83, 0x02}).error() ==
-          device_errc::illegal_data_address);
+    CHECK(parse_response<fs>(read, bytes{0x83, 0x02}).error() == device_errc::illegal_data_address);
     CHECK(parse_response(coils, bytes{0x01, 0x01, 0x55}));
     CHECK(parse_response<fs>(coils, bytes{0x01, 0x01, 0x55}).error() == errc::invalid_argument);
 

@@ -158,8 +158,7 @@ std::error_code read_write_registers(S& stream, basic_client<L, F>& c, std::uint
     r.write_quantity = static_cast<std::uint16_t>(values.size());
     r.data = std::span<const std::uint8_t>(bytes).first(2 * values.size());
     if (auto ec = detail::transact(stream, c, unit, r)) return ec;
-    for (std::size_t i = 0; i < read_out.size(); ++i)
-        read_out[i] = register_at(c.reply().data, i);
+    for (std::size_t i = 0; i < read_out.size(); ++i) read_out[i] = register_at(c.reply().data, i);
     return {};
 }
 

@@ -35,8 +35,7 @@ public:
         case device_errc::memory_parity_error:
             return "memory parity error in the server's record file";
         case device_errc::gateway_path_unavailable: return "gateway path unavailable";
-        case device_errc::gateway_target_failed:
-            return "gateway target device failed to respond";
+        case device_errc::gateway_target_failed: return "gateway target device failed to respond";
         }
         return "unknown Modbus exception code";
     }
