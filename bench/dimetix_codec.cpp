@@ -122,8 +122,7 @@ void BM_sensor_measurement(benchmark::State& state) {
         benchmark::DoNotOptimize(send.bytes.data());
         s.on_receive(answer, now + 1ms);
         const auto done = s.next(now + 1ms);
-        if (done.what != session_action::kind::done || s.error() ||
-            s.last_reply().values[0] != 1234) {
+        if (done.what != session_action::kind::done || s.error() || s.reply().values[0] != 1234) {
             state.SkipWithError("measurement did not succeed");
             break;
         }

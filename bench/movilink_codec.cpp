@@ -130,7 +130,7 @@ void BM_decoder_bytewise(benchmark::State& state) {
         benchmark::ClobberMemory();
         d.idle();
         decoder::status st = decoder::status::need_more;
-        for (std::size_t i = 0; i < in.size(); ++i) st = d.feed({&in[i], 1}).status;
+        for (std::size_t i = 0; i < in.size(); ++i) st = d.feed({&in[i], 1}).what;
         if (st != decoder::status::frame) {
             state.SkipWithError("decoder did not frame M2");
             break;
@@ -150,7 +150,7 @@ void BM_decoder_chunk(benchmark::State& state) {
         benchmark::ClobberMemory();
         d.idle();
         const auto s = d.feed(in);
-        if (s.status != decoder::status::frame) {
+        if (s.what != decoder::status::frame) {
             state.SkipWithError("decoder did not frame M2");
             break;
         }

@@ -26,7 +26,7 @@
 //   * session: every send is the encoded command; sends <= 1 + retries (connect: attempts);
 //     `wait` deadlines lie in the future; no `done` before the deadline unless an answer or
 //     a malformed line came; with no input it is done within (1 + retries) timeouts
-//   * outcome: success -> last_reply() answers the command (check_answers() empty) and
+//   * outcome: success -> reply() answers the command (check_answers() empty) and
 //     carries its ID; a device error -> a gN@Ezzz line of the command's ID (or any ID for
 //     dg) was received and error() holds zzz; stats add up
 #include <fuzzer/FuzzedDataProvider.h>
@@ -289,7 +289,7 @@ struct harness {
         const std::error_code ec = s.error();
         if (!ec) {
             ++succeeded;
-            const reply& r = s.last_reply();
+            const reply& r = s.reply();
             FERRULE_CHECK(!check_answers(cmd, r));
             if (cmd.id != command::no_id) FERRULE_CHECK(r.id == cmd.id);
             FERRULE_CHECK(s.consecutive_failures() == 0);
@@ -298,9 +298,9 @@ struct harness {
         } else {
             ++failed;
             if (ec.category() == device_category()) {
-                FERRULE_CHECK(s.last_reply().kind == reply_kind::error);
-                FERRULE_CHECK(ec.value() == s.last_reply().error_code);
-                if (cmd.id != command::no_id) FERRULE_CHECK(s.last_reply().id == cmd.id);
+                FERRULE_CHECK(s.reply().kind == reply_kind::error);
+                FERRULE_CHECK(ec.value() == s.reply().error_code);
+                if (cmd.id != command::no_id) FERRULE_CHECK(s.reply().id == cmd.id);
             } else {
                 FERRULE_CHECK(ec == errc::timeout || ec == errc::malformed);
                 FERRULE_CHECK(sends == max_sends);

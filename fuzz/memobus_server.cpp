@@ -147,7 +147,7 @@ struct harness {
 
     // The error code the server must answer `r` with, 0 if none; a normal answer is applied to
     // `ref`.
-    error_code model(const request& r) {
+    device_errc model(const request& r) {
         const sfc f = r.function;
         const auto mw = ref.mw();
         switch (f) {
@@ -156,24 +156,24 @@ struct harness {
             const std::size_t words = f == sfc::read_coils ? ref.mw_size : ref.iw_size;
             const std::size_t first =
                 16u * (f == sfc::read_coils ? cfg.mb_offset : cfg.ib_offset) + r.address;
-            return first + r.count > 16u * words ? error_code::address_error : error_code{};
+            return first + r.count > 16u * words ? device_errc::address_error : device_errc{};
         }
         case sfc::read_holding_registers:
         case sfc::read_holding_registers_ext:
             return cfg.mw_offset + std::size_t{r.address} + r.count > ref.mw_size
-                       ? error_code::address_error
-                       : error_code{};
+                       ? device_errc::address_error
+                       : device_errc{};
         case sfc::read_input_registers:
         case sfc::read_input_registers_ext:
             return cfg.iw_offset + std::size_t{r.address} + r.count > ref.iw_size
-                       ? error_code::address_error
-                       : error_code{};
+                       ? device_errc::address_error
+                       : device_errc{};
         case sfc::write_coil:
         case sfc::write_coils: {
             const std::size_t first = 16u * cfg.mb_offset + r.address;
-            if (first + r.count > 16u * ref.mw_size) return error_code::address_error;
+            if (first + r.count > 16u * ref.mw_size) return device_errc::address_error;
             for (std::size_t i = 0; i < r.count; ++i)
-                if (!writable((first + i) / 16)) return error_code::count_error;
+                if (!writable((first + i) / 16)) return device_errc::count_error;
             for (std::size_t i = 0; i < r.count; ++i)
                 ref.set_mb(first + i,
                            f == sfc::write_coil ? r.value == coil_on : (r.raw[i / 8] >> i % 8) & 1);
@@ -183,9 +183,9 @@ struct harness {
         case sfc::write_holding_registers:
         case sfc::write_holding_registers_ext: {
             const std::size_t first = cfg.mw_offset + std::size_t{r.address};
-            if (first + r.count > ref.mw_size) return error_code::address_error;
+            if (first + r.count > ref.mw_size) return device_errc::address_error;
             for (std::size_t i = 0; i < r.count; ++i)
-                if (!writable(first + i)) return error_code::count_error;
+                if (!writable(first + i)) return device_errc::count_error;
             for (std::size_t i = 0; i < r.count; ++i)
                 mw[first + i] =
                     f == sfc::write_holding_register ? r.value : word_at(f, r.raw, i, cfg.order);
@@ -195,22 +195,22 @@ struct harness {
         case sfc::read_holding_registers_random:
             for (std::size_t i = 0; i < r.count; ++i)
                 if (cfg.mw_offset + std::size_t{word_at(f, r.raw, i)} >= ref.mw_size)
-                    return error_code::address_error;
+                    return device_errc::address_error;
             return {};
         case sfc::write_holding_registers_random: {
             for (std::size_t i = 0; i < r.count; ++i)
                 if (cfg.mw_offset + std::size_t{word_at(f, r.raw, 2 * i)} >= ref.mw_size)
-                    return error_code::address_error;
+                    return device_errc::address_error;
             for (std::size_t i = 0; i < r.count; ++i)
                 if (!writable(cfg.mw_offset + std::size_t{word_at(f, r.raw, 2 * i)}))
-                    return error_code::count_error;
+                    return device_errc::count_error;
             for (std::size_t i = 0; i < r.count; ++i)
                 mw[cfg.mw_offset + std::size_t{word_at(f, r.raw, 2 * i)}] =
                     word_at(f, r.raw, 2 * i + 1);
             return {};
         }
         }
-        return error_code::sfc_error;
+        return device_errc::sfc_error;
     }
 
     // The data of a normal reply to the read `r`: the image's words and bits.
@@ -283,17 +283,17 @@ struct harness {
         FERRULE_CHECK(rbody[4] == swap_nibbles(body.size() > 4 ? body[4] : 0));
 
         const auto req = parse_request(body, cfg.order);
-        const error_code expected =
-            req ? model(*req) : static_cast<error_code>(req.error().value());
+        const device_errc expected =
+            req ? model(*req) : static_cast<device_errc>(req.error().value());
         if (rbody[3] & error_flag) {
             FERRULE_CHECK(size == 18);
             FERRULE_CHECK(rbody[3] == ((body.size() > 3 ? body[3] : 0) | error_flag));
             FERRULE_CHECK(rbody[5] >= 1 && rbody[5] <= 3);
-            FERRULE_CHECK(static_cast<error_code>(rbody[5]) == expected);
+            FERRULE_CHECK(static_cast<device_errc>(rbody[5]) == expected);
             FERRULE_CHECK(image_is_ref());
             return;
         }
-        FERRULE_CHECK(req.has_value() && expected == error_code{});
+        FERRULE_CHECK(req.has_value() && expected == device_errc{});
         const auto rsp = parse_response(*req, rbody, cfg.order);
         FERRULE_CHECK(rsp.has_value());
         FERRULE_CHECK(image_is_ref());

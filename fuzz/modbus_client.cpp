@@ -21,7 +21,7 @@
 //     an MBAP header with transaction(), protocol 0, the length and the unit, then pdu()
 //   * at most 1 + retries sends per transaction; attempts() <= 1 + retries, always
 //   * outcome at `done`: success -> response_pdu() is a response that parse_response()
-//     accepts for the request, and response() is what it gives; an exception -> a 2-byte
+//     accepts for the request, and reply() is what it gives; an exception -> a 2-byte
 //     response_pdu() with the exception bit; no_response_expected exactly for broadcasts and
 //     FC 8 sub-function 04; any other failure -> an empty response_pdu()
 //   * with no input the session reaches `done` after a bounded number of deadlines
@@ -223,7 +223,7 @@ struct harness {
             FERRULE_CHECK(!pdu.empty());
             response r;
             FERRULE_CHECK(!parse_response(sent, pdu, r));
-            const response& got = c.response();
+            const response& got = c.reply();
             FERRULE_CHECK(got.function == r.function && got.address == r.address &&
                           got.value == r.value && got.quantity == r.quantity &&
                           got.data.data() == r.data.data() && got.data.size() == r.data.size());

@@ -123,7 +123,7 @@ void fuzz_parse(std::span<const std::uint8_t> in) {
     decoder d;
     d.idle();
     const auto s = d.feed(in);
-    FERRULE_CHECK(s.status == decoder::status::frame && s.consumed == in.size());
+    FERRULE_CHECK(s.what == decoder::status::frame && s.consumed == in.size());
     FERRULE_CHECK(d.frame().size() == in.size() &&
                   std::memcmp(d.frame().data(), in.data(), in.size()) == 0);
 }
@@ -158,7 +158,7 @@ struct harness {
         fed += s.consumed;
         FERRULE_CHECK(dec.skipped() >= skipped_before);
         FERRULE_CHECK(dec.skipped() - skipped_before <= buffered_before + s.consumed);
-        switch (s.status) {
+        switch (s.what) {
         case decoder::status::need_more:
             FERRULE_CHECK(s.consumed == chunk.size());
             FERRULE_CHECK(!s.ec);

@@ -131,12 +131,12 @@ public:
             ml::decoder d;
             d.idle();
             const auto s = d.feed(at(pos_, stop));
-            if (s.status == ml::decoder::status::frame) {
+            if (s.what == ml::decoder::status::frame) {
                 flush_junk(at(junk_from_, pos_));
                 print_movilink_frame(o_, pos_, d.frame());
                 pos_ += s.consumed;
                 junk_from_ = pos_;
-            } else if (s.status == ml::decoder::status::need_more) {
+            } else if (s.what == ml::decoder::status::need_more) {
                 if (!end) return junk_from_; // the rest of the telegram is still to come
                 flush_junk(at(junk_from_, pos_));
                 junk_from_ = pos_;

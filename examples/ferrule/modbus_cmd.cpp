@@ -172,7 +172,7 @@ int cmd_read(context& c) {
                                          function_name(static_cast<std::uint8_t>(fc)), c.o.start,
                                          c.o.start, quantity, unit_text(c));
     if (auto ec = transact(c, r)) return fail(c, what, ec);
-    const auto data = c.client.response().data;
+    const auto data = c.client.reply().data;
     std::string text;
     nlohmann::json values = nlohmann::json::array();
     nlohmann::json registers = nlohmann::json::array();
@@ -312,7 +312,7 @@ int cmd_diag(context& c) {
         const std::string what = fmt::format(
             "diagnostics {} on {}", echo ? "return query data" : "clear counters", unit_text(c));
         if (auto ec = transact(c, r)) return fail(c, what, ec);
-        const std::uint16_t back = load_be16(c.client.response().data.data());
+        const std::uint16_t back = load_be16(c.client.reply().data.data());
         nlohmann::json j{
             {"ok", true}, {"unit", c.unit()}, {"sub_function", r.value}, {"data", back}};
         emit(c.o.common, j,
@@ -329,7 +329,7 @@ int cmd_diag(context& c) {
             continue;
         }
         if (auto ec = transact(c, r)) return fail(c, fmt::format("diagnostics {}", k.name), ec);
-        const std::uint16_t n = load_be16(c.client.response().data.data());
+        const std::uint16_t n = load_be16(c.client.reply().data.data());
         values[k.name] = n;
         text += fmt::format("{}{:<30} {}", text.empty() ? "" : "\n", k.name, n);
     }
@@ -355,7 +355,7 @@ int cmd_id(context& c) {
     for (unsigned part = 0; part < 256; ++part) {
         if (auto ec = transact(c, r))
             return fail(c, fmt::format("read device identification of {}", unit_text(c)), ec);
-        const auto& resp = c.client.response();
+        const auto& resp = c.client.reply();
         conformity = resp.conformity;
         auto rest = resp.data;
         mb::device_id_object obj;

@@ -178,10 +178,10 @@ std::string prm_text(const pb::prm_data& p) {
 
 // After Set_Prm or Chk_Cfg: the slave's verdict, from its diagnosis. A slave locked to
 // another master acknowledges both and takes neither.
-std::error_code verdict(context& c, std::uint8_t fault, pb::device_error error) {
+std::error_code verdict(context& c, std::uint8_t fault, pb::device_errc error) {
     pb::slave_diag d;
     if (auto ec = pb::read_slave_diag(c.line(), c.master, c.slave(), d)) return ec;
-    if (pb::locked_to_other(d, c.master.config().address)) return pb::device_error::master_lock;
+    if (pb::locked_to_other(d, c.master.config().address)) return pb::device_errc::master_lock;
     if (d.status1 & fault) return error;
     return {};
 }
@@ -193,7 +193,7 @@ int cmd_set_prm(context& c) {
     if (c.o.common.dry_run) return print_request(c, c.master.start_set_prm(c.slave(), p));
     if (!open_port(c)) return exit_transport;
     if (auto ec = pb::set_prm(c.line(), c.master, c.slave(), p)) return fail(c, "Set_Prm", ec);
-    if (auto ec = verdict(c, pb::diag::prm_fault, pb::device_error::prm_fault))
+    if (auto ec = verdict(c, pb::diag::prm_fault, pb::device_errc::prm_fault))
         return fail(c, "Set_Prm", ec);
     nlohmann::json j{
         {"ok", true},
@@ -232,7 +232,7 @@ int cmd_chk_cfg(context& c) {
     if (c.o.common.dry_run) return print_request(c, c.master.start_chk_cfg(c.slave(), cfg));
     if (!open_port(c)) return exit_transport;
     if (auto ec = pb::chk_cfg(c.line(), c.master, c.slave(), cfg)) return fail(c, "Chk_Cfg", ec);
-    if (auto ec = verdict(c, pb::diag::cfg_fault, pb::device_error::cfg_fault))
+    if (auto ec = verdict(c, pb::diag::cfg_fault, pb::device_errc::cfg_fault))
         return fail(c, "Chk_Cfg", ec);
     nlohmann::json j = cfg_json(cfg);
     j["ok"] = true;
@@ -245,7 +245,7 @@ int cmd_get_cfg(context& c) {
     if (c.o.common.dry_run) return print_request(c, c.master.start_get_cfg(c.slave()));
     if (!open_port(c)) return exit_transport;
     if (auto ec = pb::get_cfg(c.line(), c.master, c.slave())) return fail(c, "Get_Cfg", ec);
-    const auto cfg = c.master.reply_data();
+    const auto cfg = c.master.reply();
     nlohmann::json j = cfg_json(cfg);
     j["ok"] = true;
     j["slave"] = c.slave();
@@ -267,7 +267,7 @@ int bring_up(context& c, std::vector<std::uint8_t>& cfg) {
     }
     if (cfg.empty()) {
         if (auto ec = pb::get_cfg(c.line(), c.master, c.slave())) return fail(c, "Get_Cfg", ec);
-        const auto r = c.master.reply_data();
+        const auto r = c.master.reply();
         cfg.assign(r.begin(), r.end());
     }
     std::vector<std::uint8_t> user;
@@ -306,7 +306,7 @@ int cmd_exchange(context& c) {
         auto ec = c.master.start_data_exchange(c.slave(), out);
         if (!ec) ec = run(c.line(), c.master);
         if (ec) return fail(c, "Data_Exchange", ec);
-        const auto in = c.master.reply_data();
+        const auto in = c.master.reply();
         const bool dh = c.master.data_high();
         nlohmann::json j{{"ok", true},          {"slave", c.slave()}, {"cycle", i + 1},
                          {"outputs", hex(out)}, {"inputs", hex(in)},  {"data_high", dh}};

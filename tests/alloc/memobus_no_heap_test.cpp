@@ -43,7 +43,7 @@ std::vector<std::uint8_t> reply(const std::vector<std::uint8_t>& cmd, const resp
 std::vector<std::uint8_t> error_reply(const std::vector<std::uint8_t>& cmd) {
     std::vector<std::uint8_t> out(max_message);
     out.resize(
-        *encode_error(load_header(cmd.data()), cmd[15], cmd[16], error_code::address_error, out));
+        *encode_error(load_header(cmd.data()), cmd[15], cmd[16], device_errc::address_error, out));
     return out;
 }
 
@@ -126,7 +126,7 @@ TEST_CASE("memobus master traffic allocates nothing", "[alloc][memobus]") {
         failures += static_cast<bool>(read_bits(*line, *m, *try_parse_register("MB001000"), bits));
         failures += !bits[0] || bits[1] || !bits[2] || !bits[9];
         std::array<std::uint16_t, 1> in{};
-        errors += read_words(*line, *m, iw(0), in) == error_code::address_error;
+        errors += read_words(*line, *m, iw(0), in) == device_errc::address_error;
         std::array<char, max_register_name> name{};
         failures += !format_register(mb(100, 10), name);
         line->clear_wire_log();

@@ -104,7 +104,7 @@ TEST_CASE("modbus client RTU traffic allocates nothing", "[alloc][modbus]") {
         failures += static_cast<bool>(write_registers(*line, *c, 1, 0x20, w));
         failures += static_cast<bool>(write_coil(*line, *c, 0, 7, true));
         std::array<bool, 10> bits{};
-        exceptions += read_coils(*line, *c, 1, 0, bits) == exception_code::illegal_data_address;
+        exceptions += read_coils(*line, *c, 1, 0, bits) == device_errc::illegal_data_address;
         line->clear_wire_log();
     }
     const auto after = ferrule_test::allocations.load();

@@ -137,7 +137,7 @@ TEST_CASE("PROFIBUS master start-up, data exchange and faults allocate nothing",
         slave_diag d;
         if (m->data_high()) failures += static_cast<bool>(read_slave_diag(*line, *m, 8, d));
         if (i % 5 == 4)
-            refusals += data_exchange(*line, *m, 8, outputs, in) == device_error::sap_not_active;
+            refusals += data_exchange(*line, *m, 8, outputs, in) == device_errc::sap_not_active;
         global_control c;
         c.command = control::clear_data;
         failures += static_cast<bool>(send_global_control(*line, *m, c));

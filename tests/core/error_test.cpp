@@ -24,8 +24,8 @@ TEST_CASE("stored_error gives back the error_code it was given", "[core][error]"
     CHECK(std::error_code(timeout) == errc::timeout);
     CHECK(&std::error_code(timeout).category() == &ferrule::errc_category());
 
-    const stored_error exception = ferrule::modbus::exception_code::illegal_data_address;
-    CHECK(std::error_code(exception) == ferrule::modbus::exception_code::illegal_data_address);
+    const stored_error exception = ferrule::modbus::device_errc::illegal_data_address;
+    CHECK(std::error_code(exception) == ferrule::modbus::device_errc::illegal_data_address);
     CHECK(std::error_code(exception) != errc::unexpected_type); // same value 2, other category
 
     const std::error_code os = std::make_error_code(std::errc::io_error);

@@ -37,7 +37,7 @@ void measured(rig& r, const result<measurement>& m) {
 void no_answer(const rig& r, const result<measurement>& m) {
     CHECK_FALSE(m);
     CHECK_FALSE(r.s.busy());
-    CHECK(r.s.last_reply().count == 0);
+    CHECK(r.s.reply().count == 0);
     CHECK(r.s.stats().succeeded == 0);
     CHECK(r.s.stats().failed == 1);
 }

@@ -118,8 +118,8 @@ TEST_CASE("a garbled answer is retried, another ID's garbled line only skipped",
     const auto m = measure(line, s, 1);
     REQUIRE(m);
     CHECK(m->distance == 777);
-    CHECK(s.last_reply().id == 1);
-    CHECK(s.last_reply().id_digits == 1); // as answered(): the leading zero is not kept
+    CHECK(s.reply().id == 1);
+    CHECK(s.reply().id_digits == 1); // as answered(): the leading zero is not kept
     CHECK(s.stats().malformed_lines == 1);
     CHECK(s.stats().foreign_lines == 1);
     CHECK(s.attempts() == 2);
@@ -163,7 +163,7 @@ TEST_CASE("@E255 ends the command with the device error and its text", "[dimetix
     CHECK(m.error().message() ==
           "@E255: received signal too low or distance not in range: use a more reflective target");
     CHECK(s.error() == make_device_error(255));
-    CHECK(s.last_reply().kind == reply_kind::error);
+    CHECK(s.reply().kind == reply_kind::error);
     CHECK(s.attempts() == 1); // device errors are not retried by default
     CHECK(s.stats().device_errors == 1);
     CHECK(s.consecutive_failures() == 0); // the line works: no step towards the fault latch
@@ -215,7 +215,7 @@ TEST_CASE("stop while tracking drains the queued gNh lines until gN?", "[dimetix
     REQUIRE_FALSE(stop(line, s, 0));
     CHECK(s.stats().skipped_lines == 3);
     CHECK(s.attempts() == 1);
-    CHECK(s.last_reply().kind == reply_kind::startup_or_ack);
+    CHECK(s.reply().kind == reply_kind::startup_or_ack);
 }
 
 TEST_CASE("connect sends sNc until the sensor answers gN?", "[dimetix][sensor]") {
@@ -330,7 +330,7 @@ TEST_CASE("buffered tracking via sNf and sNq reports the buffer status", "[dimet
     CHECK(v->status == buffer_status::overwritten);
     REQUIRE_FALSE(stop(line, s, 0));
     CHECK(read_buffer(line, s, 0).error() == make_device_error(210));
-    CHECK(s.last_reply().buffer_status == 0);
+    CHECK(s.reply().buffer_status == 0);
     CHECK(peer.mismatches() == 0);
 }
 

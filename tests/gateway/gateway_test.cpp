@@ -191,7 +191,7 @@ TEST_CASE("gateway: Set_Prm without Lock_Req, or from another master, does not d
     pb::master_config c3 = setup::master_config(19'200);
     c3.address = 3;
     pb::master other(c3);
-    CHECK(pb::bring_up(s.dp_line, other, 8, prm(), cfg5) == pb::device_error::master_lock);
+    CHECK(pb::bring_up(s.dp_line, other, 8, prm(), cfg5) == pb::device_errc::master_lock);
     CHECK(s.rig.core().dp().master_address() == 2);
 
     REQUIRE_FALSE(s.exchange(start, in));

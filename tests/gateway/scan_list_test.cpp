@@ -13,7 +13,7 @@ using namespace ferrule::gateway;
 using ferrule::duration;
 using ferrule::errc;
 using ferrule::time_point;
-using ferrule::modbus::exception_code;
+using ferrule::modbus::device_errc;
 using ferrule::modbus::function;
 using ferrule::modbus::response;
 using bytes = std::vector<std::uint8_t>;
@@ -26,7 +26,7 @@ constexpr time_point at(duration d) {
 
 const std::error_code ok{};
 const std::error_code timeout = make_error_code(errc::timeout);
-const std::error_code refused = make_error_code(exception_code::illegal_data_value);
+const std::error_code refused = make_error_code(device_errc::illegal_data_value);
 
 transaction read(std::uint8_t unit, std::uint16_t address, std::uint16_t count,
                  std::uint16_t input_offset = 0) {

@@ -400,7 +400,7 @@ TEST_CASE("memobus server: each channel has its own offsets and write range", "[
     w.address = 1005;
     const auto refused = b.transact(w);
     REQUIRE_FALSE(refused);
-    CHECK(refused.error() == mb::make_error_code(mb::error_code::count_error));
+    CHECK(refused.error() == mb::make_error_code(mb::device_errc::count_error));
     // a's MW00005 is MW01005; b's is MW00005
     auto r = a.transact(make(mb::sfc::read_holding_registers_ext, 5, 1));
     REQUIRE(r);

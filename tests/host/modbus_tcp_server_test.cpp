@@ -283,7 +283,7 @@ TEST_CASE("modbus client: many callers share one connection through async_driver
         r.address = static_cast<std::uint16_t>(i % 16);
         r.quantity = 1;
         drv.async_transact([r](mb::client& cl) { return cl.start(1, r); },
-                           [](mb::client& cl) { return mb::register_at(cl.response().data, 0); },
+                           [](mb::client& cl) { return mb::register_at(cl.reply().data, 0); },
                            [&results, i](std::error_code e, std::uint16_t v) {
                                results[static_cast<std::size_t>(i)] = {e, v};
                            });

@@ -240,7 +240,7 @@ TEST_CASE("memobus master sends the golden requests, serial counting up", "[memo
     CHECK_FALSE(m.bit(1));
     CHECK(m.bit(2));
     CHECK(m.bit(9));
-    CHECK(m.response().cpu == 0x12);
+    CHECK(m.reply().cpu == 0x12);
     REQUIRE_FALSE(transact(line, m, make(sfc::read_holding_registers, 100, 2)));
     CHECK(m.word(0) == 0x1234); // big-endian, the default (§3.3)
     CHECK(m.word(1) == 0xABCD);
@@ -414,7 +414,7 @@ TEST_CASE("memobus master: the controller's error code, not resent", "[memobus][
     master m(cfg);
     std::array<std::uint16_t, 10> regs{};
     const auto ec = read_words(line, m, mw(0), regs);
-    CHECK(ec == error_code::address_error);
+    CHECK(ec == device_errc::address_error);
     CHECK(ec.category() == device_category());
     CHECK(ec.message() == "controller: reference address error");
     CHECK(m.error() == ec);

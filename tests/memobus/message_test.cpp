@@ -186,12 +186,12 @@ TEST_CASE("memobus error responses: bad SFC, address and count", "[memobus]") {
     const auto cmd = command(ext, 0);
     octets out(max_message);
     const auto n = encode_error(load_header(cmd.data()), static_cast<std::uint8_t>(ext.function),
-                                ext.cpu, error_code::address_error, out);
+                                ext.cpu, device_errc::address_error, out);
     REQUIRE(n);
     out.resize(*n);
     CHECK(out ==
           octets{0x19, 0, 0, 0, 0, 0, 0x12, 0, 0, 0, 0, 0, 0x04, 0x00, 0x20, 0x89, 0x01, 0x02});
-    CHECK(parse_response(ext, body(out)).error() == error_code::address_error);
+    CHECK(parse_response(ext, body(out)).error() == device_errc::address_error);
     CHECK(parse_response(ext, body(out)).error().message() ==
           "controller: reference address error");
 
@@ -199,23 +199,23 @@ TEST_CASE("memobus error responses: bad SFC, address and count", "[memobus]") {
     auto raw = [](std::initializer_list<std::uint8_t> b) { return octets(b); };
     // an unknown SFC: 01
     CHECK(parse_request(raw({0x07, 0x00, 0x20, 0x07, 0x10, 0x00, 0x00, 0x00, 0x01})).error() ==
-          error_code::sfc_error);
+          device_errc::sfc_error);
     // another MFC: 01
     CHECK(parse_request(raw({0x07, 0x00, 0x21, 0x03, 0x10, 0x00, 0x00, 0x00, 0x01})).error() ==
-          error_code::sfc_error);
+          device_errc::sfc_error);
     // SFC 03 of 126 registers, SFC 09 of 2045: 03
     CHECK(parse_request(raw({0x07, 0x00, 0x20, 0x03, 0x10, 0x00, 0x00, 0x00, 0x7E})).error() ==
-          error_code::count_error);
+          device_errc::count_error);
     CHECK(
         parse_request(raw({0x08, 0x00, 0x20, 0x09, 0x10, 0x00, 0x00, 0x00, 0xFD, 0x07})).error() ==
-        error_code::count_error);
+        device_errc::count_error);
     // SFC 09 from 0xFFFF × 2: beyond the address range, 02
     CHECK(
         parse_request(raw({0x08, 0x00, 0x20, 0x09, 0x10, 0x00, 0xFF, 0xFF, 0x02, 0x00})).error() ==
-        error_code::address_error);
+        device_errc::address_error);
     // SFC 10 whose data is shorter than its count: 03
     CHECK(parse_request(raw({0x09, 0x00, 0x20, 0x10, 0x10, 0x00, 0x64, 0x00, 0x02, 0x12, 0x34}))
-              .error() == error_code::count_error);
+              .error() == device_errc::count_error);
     // The client refuses to send what the limits do not allow.
     CHECK(encode_command(make(sfc::read_holding_registers, default_cpu, 0, 126), 0, out).error() ==
           errc::invalid_argument);

@@ -316,7 +316,7 @@ TEST_CASE("modbus client: exception responses are device errors, not resent",
     client c(cfg);
     std::array<std::uint16_t, 1> reg{};
     const auto ec = read_holding_registers(line, c, 1, 0, reg);
-    CHECK(ec == exception_code::illegal_data_address);
+    CHECK(ec == device_errc::illegal_data_address);
     CHECK(ec.category() == device_category());
     CHECK_FALSE(c.succeeded());
     CHECK(c.attempts() == 1);
@@ -626,6 +626,6 @@ TEST_CASE("modbus client keeps the response PDU as received, exception responses
     std::array<std::uint16_t, 1> reg{};
     REQUIRE_FALSE(read_holding_registers(line, c, 1, 0, reg));
     CHECK(bytes(c.response_pdu().begin(), c.response_pdu().end()) == bytes{0x03, 0x02, 0x00, 0x2A});
-    CHECK(read_holding_registers(line, c, 1, 0, reg) == exception_code::illegal_data_address);
+    CHECK(read_holding_registers(line, c, 1, 0, reg) == device_errc::illegal_data_address);
     CHECK(bytes(c.response_pdu().begin(), c.response_pdu().end()) == bytes{0x83, 0x02});
 }

@@ -56,7 +56,7 @@ TEST_CASE("modbus t1.5 and t3.5 follow the character time up to 19200 baud, then
 }
 
 TEST_CASE("modbus exception codes are device errors with the spec's meaning", "[modbus][error]") {
-    const std::error_code ec = exception_code::illegal_data_address;
+    const std::error_code ec = device_errc::illegal_data_address;
     CHECK(ec.category() == device_category());
     CHECK(ec.value() == 2);
     CHECK(std::string(ec.category().name()) == "modbus");
@@ -341,7 +341,7 @@ TEST_CASE("modbus exception responses become device errors", "[modbus][pdu]") {
     const bytes ex{0x83, 0x02};
     CHECK(expected_response_length(ex) == 2);
     const auto p = parse_response(regs, ex);
-    CHECK(p.error() == exception_code::illegal_data_address);
+    CHECK(p.error() == device_errc::illegal_data_address);
     CHECK(p.error().category() == device_category());
     CHECK(parse_response(regs, bytes{0x83, 0x00}).error() == errc::malformed);
     CHECK(parse_response(regs, bytes{0x83, 0x02, 0x00}).error() == errc::malformed);
@@ -434,8 +434,7 @@ TEST_CASE("modbus function sets: only the functions named are encoded, parsed an
     const bytes two{0x03, 0x04, 0x00, 0x01, 0x00, 0x02};
     REQUIRE(parse_response<fs>(read, two));
     CHECK(parse_response<fs>(read, two)->data.size() == 4);
-    CHECK(parse_response<fs>(read, bytes{0x83, 0x02}).error() ==
-          exception_code::illegal_data_address);
+    CHECK(parse_response<fs>(read, bytes{0x83, 0x02}).error() == device_errc::illegal_data_address);
     CHECK(parse_response(coils, bytes{0x01, 0x01, 0x55}));
     CHECK(parse_response<fs>(coils, bytes{0x01, 0x01, 0x55}).error() == errc::invalid_argument);
 

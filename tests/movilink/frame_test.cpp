@@ -175,10 +175,10 @@ TEST_CASE("decoder frames by idle + SD + TYP length, even with 0x02/0x1D in the 
     decoder d(decoder::accept::responses);
     for (std::size_t i = 0; i + 1 < wire.size(); ++i) {
         const auto s = d.feed(std::span(&wire[i], 1));
-        REQUIRE(s.status == decoder::status::need_more);
+        REQUIRE(s.what == decoder::status::need_more);
     }
     const auto s = d.feed(std::span(&wire.back(), 1));
-    REQUIRE(s.status == decoder::status::frame);
+    REQUIRE(s.what == decoder::status::frame);
     CHECK(bytes(d.frame().begin(), d.frame().end()) == wire);
 }
 
@@ -188,18 +188,18 @@ TEST_CASE("decoder resynchronises at the next idle gap after garbage", "[movilin
     // A request start delimiter where a response is expected.
     const bytes garbage{0x02, 0x1D, 0x01, 0x85};
     auto s = d.feed(garbage);
-    CHECK(s.status == decoder::status::error);
+    CHECK(s.what == decoder::status::error);
     CHECK(s.ec == ferrule::errc::malformed);
     CHECK(s.consumed == 1);
     // Without an idle gap everything else is skipped, even a valid-looking telegram.
     s = d.feed(std::span(garbage).subspan(1));
-    CHECK(s.status == decoder::status::need_more);
+    CHECK(s.what == decoder::status::need_more);
     s = d.feed(good);
-    CHECK(s.status == decoder::status::need_more);
+    CHECK(s.what == decoder::status::need_more);
     CHECK(d.skipped() == garbage.size() + good.size());
     d.idle();
     s = d.feed(good);
-    CHECK(s.status == decoder::status::frame);
+    CHECK(s.what == decoder::status::frame);
     CHECK(s.consumed == good.size());
 }
 
@@ -207,39 +207,39 @@ TEST_CASE("decoder reports bad BCC, bad TYP and trailing bytes", "[movilink][dec
     decoder d;
     bytes bad_bcc{0x1D, 0x01, 0x85, 0x02, 0x06, 0x00, 0x00, 0x06, 0x06, 0x9C};
     auto s = d.feed(bad_bcc);
-    CHECK(s.status == decoder::status::error);
+    CHECK(s.what == decoder::status::error);
     CHECK(s.ec == ferrule::errc::bad_checksum);
     CHECK(s.consumed == bad_bcc.size());
 
     d.idle();
     s = d.feed(bytes{0x1D, 0x01, 0x42});
-    CHECK(s.status == decoder::status::error);
+    CHECK(s.what == decoder::status::error);
     CHECK(s.ec == ferrule::errc::malformed);
     CHECK(s.consumed == 3);
 
     d.idle();
     const bytes d9{0x02, 0x03, 0x01, 0x00, 0x00, 0x00, 0xEE};
     s = d.feed(d9);
-    CHECK(s.status == decoder::status::frame); // D9: BCC 0x00 is a valid BCC
+    CHECK(s.what == decoder::status::frame); // D9: BCC 0x00 is a valid BCC
     CHECK(s.consumed == 6);
     s = d.feed(std::span(d9).subspan(6));
-    CHECK(s.status == decoder::status::error); // a byte behind a telegram without a gap
+    CHECK(s.what == decoder::status::error); // a byte behind a telegram without a gap
 }
 
 TEST_CASE("decoder counts every skipped byte once", "[movilink][decoder]") {
     // Found by fuzz_movilink_decoder: the byte that broke a telegram was counted twice.
     decoder d;
     auto s = d.feed(bytes{0x1D, 0x01, 0x42}); // bad TYP in the third byte
-    REQUIRE(s.status == decoder::status::error);
+    REQUIRE(s.what == decoder::status::error);
     CHECK(d.skipped() == 3);
     d.idle();
     s = d.feed(bytes{0x1D, 0x01, 0x81, 0x00, 0x06, 0x00}); // 1PD with a wrong BCC
-    REQUIRE(s.status == decoder::status::error);
+    REQUIRE(s.what == decoder::status::error);
     CHECK(s.ec == ferrule::errc::bad_checksum);
     CHECK(d.skipped() == 3 + 6);
     d.idle();
     s = d.feed(bytes{0x55}); // no start delimiter
-    REQUIRE(s.status == decoder::status::error);
+    REQUIRE(s.what == decoder::status::error);
     CHECK(d.skipped() == 3 + 6 + 1);
 }
 

@@ -118,7 +118,7 @@ TEST_CASE("profibus master cycle keeps a slave with the wrong ident out, the oth
     line3 l(0x0C01); // the master expects 0x0C01; slave 7 is 0x0C00
     CHECK(l.pass() == 2);
     CHECK_FALSE(l.slaves[2].exchanging);
-    CHECK(l.slaves[2].last_error == pb::device_error::prm_fault);
+    CHECK(l.slaves[2].last_error == pb::device_errc::prm_fault);
     CHECK((l.bus[2].diagnosis().status1 & pb::diag::prm_fault) != 0);
     // Not tried again before retry_after.
     const auto tries = l.slaves[2].bring_ups;
@@ -161,7 +161,7 @@ TEST_CASE("profibus master cycle keeps a slave locked to another master out",
     REQUIRE_FALSE(pb::bring_up(l.line, other, 6, prm(0x0B00), cfg_b));
     CHECK(l.pass() == 2);
     CHECK_FALSE(l.slaves[1].exchanging);
-    CHECK(l.slaves[1].last_error == pb::device_error::master_lock);
+    CHECK(l.slaves[1].last_error == pb::device_errc::master_lock);
     CHECK(l.bus[1].master_address() == 3);
     CHECK(l.slaves[1].bring_ups == 1);
 }
@@ -181,8 +181,8 @@ TEST_CASE("profibus master cycle waits for the first retry when no slave can run
     REQUIRE(c.passes() == 1);
     CHECK(c.last_pass_exchanges() == 0);
     CHECK(l.slaves[0].last_error == errc::timeout);
-    CHECK(l.slaves[1].last_error == pb::device_error::prm_fault);
-    CHECK(l.slaves[2].last_error == pb::device_error::prm_fault);
+    CHECK(l.slaves[1].last_error == pb::device_errc::prm_fault);
+    CHECK(l.slaves[2].last_error == pb::device_errc::prm_fault);
     // Nothing to send: the session waits for slave 20's retry, the earliest.
     const session_action a = c.next(l.line.now());
     REQUIRE(a.what == session_action::kind::wait);

@@ -73,7 +73,7 @@ void nothing_exchanged(const master_rig& r, std::error_code ec, std::error_code 
     CHECK(r.m.error() == expected);
     CHECK_FALSE(r.m.busy());
     CHECK(r.in == untouched);
-    CHECK(r.m.reply_data().empty());
+    CHECK(r.m.reply().empty());
     CHECK(r.m.stats().transactions == r.before.transactions + 1);
     CHECK(r.m.stats().succeeded == r.before.succeeded);
     CHECK(r.m.stats().failed == r.before.failed + 1);

@@ -159,7 +159,7 @@ TEST_CASE("profibus master FDL_Status: golden request without FCB, SD1 reply, wi
     CHECK(as_bytes(m.request_bytes()) == fdl_status_req);
     CHECK(m.response_fn() == response_fn::ok);
     CHECK(m.reply_frame() == frame::sd1);
-    CHECK(m.reply_data().empty());
+    CHECK(m.reply().empty());
     CHECK(line.now() == time_point{} + f19200.chars_time(6) + tsdr + f19200.chars_time(6));
     CHECK(m.stats().transactions == 1);
     CHECK(m.stats().succeeded == 1);
@@ -248,7 +248,7 @@ TEST_CASE("profibus master Data_Exchange alternates 0x5D / 0x7D; SD3 for 8 outpu
     // A slave without inputs answers with the short acknowledgement (§B.5).
     REQUIRE_FALSE(data_exchange(line, m, 8, out8, std::span<std::uint8_t>{}));
     CHECK(as_bytes(m.request_bytes()) == dx8_req_5d);
-    CHECK(m.reply_data().empty());
+    CHECK(m.reply().empty());
     in = {};
     REQUIRE_FALSE(data_exchange(line, m, 8, out_1234, in));
     CHECK(in == std::array<std::uint8_t, 2>{0xAB, 0xCD});
@@ -353,7 +353,7 @@ TEST_CASE("profibus master accepts an 8-byte data unit as SD2 and as SD3", "[pro
         CHECK(d.ident == 0x0815);
         CHECK(d.ext.empty());
         CHECK_FALSE(d.ready());
-        CHECK(as_bytes(m.reply_data()) == bytes{0x02, 0x05, 0x00, 0xFF, 0x08, 0x15});
+        CHECK(as_bytes(m.reply()) == bytes{0x02, 0x05, 0x00, 0xFF, 0x08, 0x15});
     }
     CHECK(peer.mismatches() == 0);
 }
@@ -369,7 +369,7 @@ TEST_CASE("profibus master: RS is the slave's answer, a device error, not retrie
     REQUIRE_FALSE(read_slave_diag(line, m, 8, d));
     std::array<std::uint8_t, 2> in{};
     const std::error_code ec = data_exchange(line, m, 8, out_1234, in);
-    CHECK(ec == device_error::sap_not_active);
+    CHECK(ec == device_errc::sap_not_active);
     CHECK(ec.category() == device_category());
     CHECK(ec.message() == "slave: SAP not activated (RS)");
     CHECK(m.response_fn() == response_fn::sap_not_active);
@@ -398,7 +398,7 @@ TEST_CASE("profibus master: a reply from another station is unexpected_address",
     std::array<std::uint8_t, 2> in{};
     CHECK(data_exchange(line, m, 8, out_1234, in) == errc::unexpected_address);
     CHECK(in == std::array<std::uint8_t, 2>{});
-    CHECK(m.reply_data().empty());
+    CHECK(m.reply().empty());
     CHECK(m.stats().unexpected_addresses == 1);
     CHECK(m.stats().failed == 1);
     CHECK(peer.mismatches() == 0);
@@ -475,7 +475,7 @@ TEST_CASE("profibus master Get_Cfg returns the configuration bytes", "[profibus]
     mock_serial line(f19200, &peer);
     master m;
     REQUIRE_FALSE(get_cfg(line, m, 8));
-    CHECK(as_bytes(m.reply_data()) == bytes{0x11, 0x21});
+    CHECK(as_bytes(m.reply()) == bytes{0x11, 0x21});
     CHECK(peer.mismatches() == 0);
 }
 
@@ -487,7 +487,7 @@ TEST_CASE("profibus master bring_up reports a slave that stays not ready", "[pro
     ferrule::script_peer peer(steps);
     mock_serial line(f19200, &peer);
     master m;
-    CHECK(bring_up(line, m, 8, golden_prm(), cfg_2in_2out, 2) == device_error::not_ready);
+    CHECK(bring_up(line, m, 8, golden_prm(), cfg_2in_2out, 2) == device_errc::not_ready);
     CHECK(peer.mismatches() == 0);
     CHECK(peer.finished());
 }
@@ -506,13 +506,13 @@ TEST_CASE("profibus master refuses bad requests and a second start", "[profibus]
 }
 
 TEST_CASE("profibus device_category messages", "[profibus][master]") {
-    CHECK(std::error_code(device_error::user_error).message() == "slave: user error (UE)");
-    CHECK(std::error_code(device_error::no_resource).message() ==
+    CHECK(std::error_code(device_errc::user_error).message() == "slave: user error (UE)");
+    CHECK(std::error_code(device_errc::no_resource).message() ==
           "slave: no resources for the request (RR)");
-    CHECK(std::error_code(device_error::no_response_data).message() ==
+    CHECK(std::error_code(device_errc::no_response_data).message() ==
           "slave: no response data (NR)");
     CHECK(std::string(device_category().name()) == "profibus");
-    CHECK(response_error(response_fn::no_resource) == device_error::no_resource);
+    CHECK(response_error(response_fn::no_resource) == device_errc::no_resource);
     CHECK_FALSE(response_error(response_fn::data_low));
 }
 

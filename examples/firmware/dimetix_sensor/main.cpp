@@ -37,7 +37,7 @@ int main() {
         dimetix_sensor.clear();
         if (!ec) {
             connected = true;
-            if (!was_connect) value = dimetix_sensor.last_reply().values[0];
+            if (!was_connect) value = dimetix_sensor.reply().values[0];
         } else if (ec.category() == device_category()) {
             error_code = ec.value(); // the sensor answered: the link is fine
         } else {

@@ -82,7 +82,7 @@ int main() {
             online = static_cast<std::uint8_t>(ok ? online | bit : online & ~bit);
             if (ok)
                 for (std::size_t i = 0; i < registers; ++i)
-                    values[unit - 1][i] = register_at(session.response().data, i);
+                    values[unit - 1][i] = register_at(session.reply().data, i);
             unit = static_cast<std::uint8_t>(unit % units + 1);
         }
         session.clear();

@@ -144,7 +144,7 @@ int main() {
         if (!session.succeeded())
             failures = failures + 1;
         else
-            take(i, session.response());
+            take(i, session.reply());
         session.clear();
         i = (i + 1) % 10;
     }

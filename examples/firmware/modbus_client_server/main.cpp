@@ -87,10 +87,10 @@ int main() {
             drive_failures = drive_failures + 1;
         } else if (step == 0) {
             for (std::size_t k = 0; k < 8; ++k)
-                m.input_registers()[k] = mb::register_at(client.response().data, k);
+                m.input_registers()[k] = mb::register_at(client.reply().data, k);
         } else if (step == 1) {
             for (std::size_t k = 0; k < 16; ++k)
-                m.set_discrete_input(k, (client.response().data[k / 8] >> k % 8) & 1u);
+                m.set_discrete_input(k, (client.reply().data[k / 8] >> k % 8) & 1u);
         } else {
             for (std::size_t k = 0; k < 4; ++k) written[k] = m.holding_registers()[k];
         }

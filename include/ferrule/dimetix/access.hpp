@@ -18,7 +18,7 @@ template <session_stream S>
 result<reply> transact(S& stream, sensor& s, const command& c) {
     if (auto ec = s.start(c)) return ec;
     if (auto ec = run(stream, s)) return ec;
-    return s.last_reply();
+    return s.reply();
 }
 
 // sNc until gN? (S1 §8.2.1; the paper's start-up), up to connect_attempts times.
@@ -66,7 +66,7 @@ struct buffered_distance {
 };
 
 // sNq (S1 §8.2.6). A device error (e.g. @E210 without sNf) keeps its buffer status in
-// s.last_reply().buffer_status.
+// s.reply().buffer_status.
 template <session_stream S>
 result<buffered_distance> read_buffer(S& stream, sensor& s, std::uint8_t id) {
     const auto r = transact(stream, s, dimetix::read_buffer(id));

@@ -146,7 +146,7 @@ public:
     // The finished transaction succeeded: error() is empty.
     bool succeeded() const noexcept { return !error_; }
     // The answer (valid when error() is empty; for a device error the gN@Ezzz line).
-    const reply& last_reply() const noexcept { return reply_; }
+    const dimetix::reply& reply() const noexcept { return reply_; }
     const command& last_command() const noexcept { return cmd_; }
     unsigned attempts() const noexcept { return attempts_; }
     bool busy() const noexcept {
@@ -247,7 +247,7 @@ private:
     line_decoder decoder_{};
     sensor_config cfg_;
     command cmd_{};
-    reply reply_{};
+    dimetix::reply reply_{};
     std::array<std::uint8_t, max_request_length> tx_{};
 };
 

@@ -325,7 +325,7 @@ private:
             break;
         case flight::job:
             ++stats_.transactions;
-            list_.done(job_, ec, mb_.response(), image(), now);
+            list_.done(job_, ec, mb_.reply(), image(), now);
             if (!list_.online(mb_.unit()) && cfg_.on_drive_loss == drive_loss::clear)
                 clear_inputs_of(mb_.unit());
             break;

@@ -139,7 +139,7 @@ public:
     bool succeeded() const noexcept { return !error_; }
     // The response of a successful transaction; its raw data spans the session's buffer,
     // valid until the next start().
-    const memobus::response& response() const noexcept { return response_; }
+    const memobus::response& reply() const noexcept { return response_; }
     // Register i of the response (03 04 09 0A 0D), in the byte order of its SFC (word_at()).
     std::uint16_t word(std::size_t i) const noexcept {
         return word_at(response_.function, response_.raw, i, cfg_.order);

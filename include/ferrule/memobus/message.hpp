@@ -132,41 +132,41 @@ inline result<std::size_t> finish(writer& w, const header& h_in) noexcept {
 
 // The limits and shapes a request must have (§3.4, §10.5): errc::invalid_argument to a
 // client, the error code a controller answers with to a server (request_error()).
-constexpr error_code check_request(const request& r) noexcept {
+constexpr device_errc check_request(const request& r) noexcept {
     using detail::fits;
     using detail::in;
     switch (r.function) {
     case sfc::read_coils:
     case sfc::read_input_relays:
-        if (!in(r.count, 1, max_read_bits)) return error_code::count_error;
-        return fits(r.address, r.count) ? error_code{} : error_code::address_error;
+        if (!in(r.count, 1, max_read_bits)) return device_errc::count_error;
+        return fits(r.address, r.count) ? device_errc{} : device_errc::address_error;
     case sfc::read_holding_registers:
     case sfc::read_input_registers:
-        if (!in(r.count, 1, max_read_registers)) return error_code::count_error;
-        return fits(r.address, r.count) ? error_code{} : error_code::address_error;
+        if (!in(r.count, 1, max_read_registers)) return device_errc::count_error;
+        return fits(r.address, r.count) ? device_errc{} : device_errc::address_error;
     case sfc::write_coil:
-        return r.value == coil_on || r.value == 0 ? error_code{} : error_code::count_error;
+        return r.value == coil_on || r.value == 0 ? device_errc{} : device_errc::count_error;
     case sfc::write_holding_register:
     case sfc::loopback: return {};
     case sfc::read_holding_registers_ext:
     case sfc::read_input_registers_ext:
-        if (!in(r.count, 1, max_read_registers_ext)) return error_code::count_error;
-        return fits(r.address, r.count) ? error_code{} : error_code::address_error;
+        if (!in(r.count, 1, max_read_registers_ext)) return device_errc::count_error;
+        return fits(r.address, r.count) ? device_errc{} : device_errc::address_error;
     case sfc::write_holding_registers_ext:
-        if (!in(r.count, 1, max_write_registers_ext)) return error_code::count_error;
-        return fits(r.address, r.count) ? error_code{} : error_code::address_error;
+        if (!in(r.count, 1, max_write_registers_ext)) return device_errc::count_error;
+        return fits(r.address, r.count) ? device_errc{} : device_errc::address_error;
     case sfc::read_holding_registers_random:
-        return in(r.count, 1, max_read_registers_ext) ? error_code{} : error_code::count_error;
+        return in(r.count, 1, max_read_registers_ext) ? device_errc{} : device_errc::count_error;
     case sfc::write_holding_registers_random:
-        return in(r.count, 1, max_write_random) ? error_code{} : error_code::count_error;
+        return in(r.count, 1, max_write_random) ? device_errc{} : device_errc::count_error;
     case sfc::write_coils:
-        if (!in(r.count, 1, max_write_bits)) return error_code::count_error;
-        return fits(r.address, r.count) ? error_code{} : error_code::address_error;
+        if (!in(r.count, 1, max_write_bits)) return device_errc::count_error;
+        return fits(r.address, r.count) ? device_errc{} : device_errc::address_error;
     case sfc::write_holding_registers:
-        if (!in(r.count, 1, max_write_registers)) return error_code::count_error;
-        return fits(r.address, r.count) ? error_code{} : error_code::address_error;
+        if (!in(r.count, 1, max_write_registers)) return device_errc::count_error;
+        return fits(r.address, r.count) ? device_errc{} : device_errc::address_error;
     }
-    return error_code::sfc_error;
+    return device_errc::sfc_error;
 }
 
 // A whole command message (218 header with type 0x11). invalid_argument for a request
@@ -176,7 +176,7 @@ inline result<std::size_t> encode_command(const request& r, std::uint8_t serial,
                                           data_order order = data_order::big_endian,
                                           std::uint8_t destination_channel = 0,
                                           std::uint8_t source_channel = 0) noexcept {
-    if (check_request(r) != error_code{}) return errc::invalid_argument;
+    if (check_request(r) != device_errc{}) return errc::invalid_argument;
     const sfc f = r.function;
     auto w = detail::begin(out, f, r.cpu);
     if (is_extended(f)) w.u8(0); // spare
@@ -238,12 +238,12 @@ inline result<std::size_t> encode_command(const request& r, std::uint8_t serial,
 inline result<request> parse_request(std::span<const std::uint8_t> body,
                                      data_order order = data_order::big_endian) noexcept {
     if (body.size() < length_size + 3 || body[2] != mfc_extended)
-        return make_error_code(error_code::sfc_error);
+        return make_error_code(device_errc::sfc_error);
     request r;
     r.function = static_cast<sfc>(body[3]);
     r.cpu = body[4];
     const auto p = body.subspan(5); // after the CPU byte
-    const auto count_error = make_error_code(error_code::count_error);
+    const auto count_error = make_error_code(device_errc::count_error);
     switch (r.function) {
     case sfc::read_coils:
     case sfc::read_input_relays:
@@ -295,9 +295,9 @@ inline result<request> parse_request(std::span<const std::uint8_t> body,
         r.raw = p.subspan(3);
         break;
     }
-    default: return make_error_code(error_code::sfc_error);
+    default: return make_error_code(device_errc::sfc_error);
     }
-    if (const error_code e = check_request(r); e != error_code{}) return make_error_code(e);
+    if (const device_errc e = check_request(r); e != device_errc{}) return make_error_code(e);
     return r;
 }
 
@@ -356,7 +356,7 @@ inline result<std::size_t> encode_response(const header& h, const request& req, 
 
 // An error response: SFC | 0x80 and the code (§3.5); 18 bytes.
 inline result<std::size_t> encode_error(const header& h, std::uint8_t sfc_code, std::uint8_t cpu,
-                                        error_code e, std::span<std::uint8_t> out) noexcept {
+                                        device_errc e, std::span<std::uint8_t> out) noexcept {
     detail::writer w{out};
     for (std::size_t i = 0; i < header_size + length_size; ++i) w.u8(0);
     w.u8(mfc_extended);

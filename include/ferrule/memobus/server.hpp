@@ -89,15 +89,15 @@ public:
         ++stats_.requests;
         const auto body = message.subspan(header_size);
         const auto req = parse_request(body, cfg_.order);
-        outcome o{0, req ? error_code{} : static_cast<error_code>(req.error().value())};
+        outcome o{0, req ? device_errc{} : static_cast<device_errc>(req.error().value())};
         if (req) o = execute(*h, *req, mw, iw, out);
         switch (o.error) {
-        case error_code::sfc_error: ++stats_.sfc_errors; break;
-        case error_code::address_error: ++stats_.address_errors; break;
-        case error_code::count_error: ++stats_.count_errors; break;
+        case device_errc::sfc_error: ++stats_.sfc_errors; break;
+        case device_errc::address_error: ++stats_.address_errors; break;
+        case device_errc::count_error: ++stats_.count_errors; break;
         default: ++stats_.responses; break;
         }
-        if (o.error != error_code{}) {
+        if (o.error != device_errc{}) {
             // The SFC and CPU bytes as sent, when the message has them.
             const std::uint8_t f = body.size() > 3 ? body[3] : 0;
             const std::uint8_t cpu = body.size() > 4 ? body[4] : 0;
@@ -114,9 +114,9 @@ public:
 private:
     struct outcome {
         std::size_t size = 0;
-        error_code error{};
+        device_errc error{};
     };
-    static outcome fail(error_code e) noexcept { return {0, e}; }
+    static outcome fail(device_errc e) noexcept { return {0, e}; }
 
     bool writable(std::size_t first_word, std::size_t last_word) const noexcept {
         return first_word >= cfg_.write_low && last_word <= cfg_.write_high;
@@ -138,7 +138,7 @@ private:
             const bool coils = f == sfc::read_coils;
             const auto words = coils ? mw : iw;
             const std::size_t first = 16u * (coils ? cfg_.mb_offset : cfg_.ib_offset) + r.address;
-            if (first + r.count > 16u * words.size()) return fail(error_code::address_error);
+            if (first + r.count > 16u * words.size()) return fail(device_errc::address_error);
             std::array<std::uint8_t, packed_size(max_read_bits)> bits{};
             for (std::size_t i = 0; i < r.count; ++i)
                 if (bit_of(words, first + i))
@@ -155,16 +155,16 @@ private:
             const auto words = hold ? mw : iw;
             const std::size_t first =
                 std::size_t{hold ? cfg_.mw_offset : cfg_.iw_offset} + r.address;
-            if (first + r.count > words.size()) return fail(error_code::address_error);
+            if (first + r.count > words.size()) return fail(device_errc::address_error);
             rsp.words = words.subspan(first, r.count);
             return respond(h, r, rsp, out);
         }
         case sfc::write_coil:
         case sfc::write_coils: {
             const std::size_t first = 16u * cfg_.mb_offset + r.address;
-            if (first + r.count > 16u * mw.size()) return fail(error_code::address_error);
+            if (first + r.count > 16u * mw.size()) return fail(device_errc::address_error);
             if (!writable(first / 16, (first + r.count - 1) / 16))
-                return fail(error_code::count_error);
+                return fail(device_errc::count_error);
             for (std::size_t i = 0; i < r.count; ++i) {
                 const bool on =
                     f == sfc::write_coil ? r.value == coil_on : (r.raw[i / 8] >> i % 8) & 1u;
@@ -176,8 +176,8 @@ private:
         case sfc::write_holding_registers:
         case sfc::write_holding_registers_ext: {
             const std::size_t first = std::size_t{cfg_.mw_offset} + r.address;
-            if (first + r.count > mw.size()) return fail(error_code::address_error);
-            if (!writable(first, first + r.count - 1)) return fail(error_code::count_error);
+            if (first + r.count > mw.size()) return fail(device_errc::address_error);
+            if (!writable(first, first + r.count - 1)) return fail(device_errc::count_error);
             if (f == sfc::write_holding_register)
                 mw[first] = r.value;
             else
@@ -189,24 +189,24 @@ private:
         case sfc::read_holding_registers_random: {
             for (std::size_t i = 0; i < r.count; ++i)
                 if (cfg_.mw_offset + std::size_t{word_at(f, r.raw, i)} >= mw.size())
-                    return fail(error_code::address_error);
+                    return fail(device_errc::address_error);
             return {random_read(h, r, mw, out), {}};
         }
         case sfc::write_holding_registers_random: {
             bool refused = false;
             for (std::size_t i = 0; i < r.count; ++i) {
                 const std::size_t a = cfg_.mw_offset + std::size_t{word_at(f, r.raw, 2 * i)};
-                if (a >= mw.size()) return fail(error_code::address_error);
+                if (a >= mw.size()) return fail(device_errc::address_error);
                 refused = refused || !writable(a, a);
             }
-            if (refused) return fail(error_code::count_error);
+            if (refused) return fail(device_errc::count_error);
             for (std::size_t i = 0; i < r.count; ++i)
                 mw[cfg_.mw_offset + std::size_t{word_at(f, r.raw, 2 * i)}] =
                     word_at(f, r.raw, 2 * i + 1);
             return respond(h, r, rsp, out);
         }
         }
-        return fail(error_code::sfc_error);
+        return fail(device_errc::sfc_error);
     }
 
     // SFC 0D answers as 09 does (§3.4: spare, n, n registers), the registers gathered from MW

@@ -39,7 +39,7 @@ std::error_code read_bits(S& stream, basic_client<L, F>& c, std::uint8_t unit, f
     r.address = address;
     r.quantity = static_cast<std::uint16_t>(out.size());
     if (auto ec = transact(stream, c, unit, r)) return ec;
-    const auto data = c.response().data;
+    const auto data = c.reply().data;
     for (std::size_t i = 0; i < out.size(); ++i) out[i] = (data[i / 8] >> (i % 8)) & 1u;
     return {};
 }
@@ -53,7 +53,7 @@ std::error_code read_regs(S& stream, basic_client<L, F>& c, std::uint8_t unit, f
     r.address = address;
     r.quantity = static_cast<std::uint16_t>(out.size());
     if (auto ec = transact(stream, c, unit, r)) return ec;
-    for (std::size_t i = 0; i < out.size(); ++i) out[i] = register_at(c.response().data, i);
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = register_at(c.reply().data, i);
     return {};
 }
 } // namespace detail
@@ -158,8 +158,7 @@ std::error_code read_write_registers(S& stream, basic_client<L, F>& c, std::uint
     r.write_quantity = static_cast<std::uint16_t>(values.size());
     r.data = std::span<const std::uint8_t>(bytes).first(2 * values.size());
     if (auto ec = detail::transact(stream, c, unit, r)) return ec;
-    for (std::size_t i = 0; i < read_out.size(); ++i)
-        read_out[i] = register_at(c.response().data, i);
+    for (std::size_t i = 0; i < read_out.size(); ++i) read_out[i] = register_at(c.reply().data, i);
     return {};
 }
 
@@ -176,7 +175,7 @@ result<std::uint16_t> diagnostics(S& stream, basic_client<L, F>& c, std::uint8_t
     r.data = field;
     if (auto ec = detail::transact(stream, c, unit, r)) return ec;
     if (sub == diag_sub::force_listen_only) return std::uint16_t{0};
-    return load_be16(c.response().data.data());
+    return load_be16(c.reply().data.data());
 }
 
 // FC 43 / 14 (AP §6.21): one response of objects from `object_id`; walk response::data
@@ -192,7 +191,7 @@ result<response> read_device_identification(S& stream, basic_client<L, F>& c, st
     r.read_device_id_code = static_cast<std::uint8_t>(code);
     r.object_id = object_id;
     if (auto ec = detail::transact(stream, c, unit, r)) return ec;
-    return c.response();
+    return c.reply();
 }
 
 } // namespace ferrule::modbus

@@ -191,7 +191,7 @@ public:
     // The response of a successful transaction; its data spans the session's buffer, valid
     // until the next start(). Read it only when error() is empty: after a failure its data
     // is empty, its other fields are not to be used.
-    const modbus::response& response() const noexcept { return response_; }
+    const modbus::response& reply() const noexcept { return response_; }
     // The PDU of the last response that answered the request (a normal or an exception
     // response), as received; empty when none did. Valid until the next start().
     std::span<const std::uint8_t> response_pdu() const noexcept { return rx_pdu_; }

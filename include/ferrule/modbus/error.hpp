@@ -9,30 +9,33 @@
 
 namespace ferrule::modbus {
 
+// The device error enum under the name every protocol gives it: the exception code itself
+// (AP §7), whose values are the bytes a server sends, so the wire and the error are one enum.
+using device_errc = exception_code;
+
 class device_category_t final : public std::error_category {
 public:
     const char* name() const noexcept override { return "modbus"; }
     std::string message(int ev) const override { return describe(ev); }
 
     static const char* describe(int ev) noexcept {
-        switch (static_cast<exception_code>(ev)) {
-        case exception_code::illegal_function:
+        switch (static_cast<device_errc>(ev)) {
+        case device_errc::illegal_function:
             return "illegal function: the server does not support this function code";
-        case exception_code::illegal_data_address:
+        case device_errc::illegal_data_address:
             return "illegal data address: the address or address + quantity is out of range";
-        case exception_code::illegal_data_value: return "illegal data value in the request";
-        case exception_code::server_device_failure:
+        case device_errc::illegal_data_value: return "illegal data value in the request";
+        case device_errc::server_device_failure:
             return "server device failure while performing the action";
-        case exception_code::acknowledge:
+        case device_errc::acknowledge:
             return "acknowledge: request accepted, processing takes long";
-        case exception_code::server_device_busy: return "server device busy; retry later";
-        case exception_code::negative_acknowledge:
+        case device_errc::server_device_busy: return "server device busy; retry later";
+        case device_errc::negative_acknowledge:
             return "negative acknowledge: the program function cannot be performed";
-        case exception_code::memory_parity_error:
+        case device_errc::memory_parity_error:
             return "memory parity error in the server's record file";
-        case exception_code::gateway_path_unavailable: return "gateway path unavailable";
-        case exception_code::gateway_target_failed:
-            return "gateway target device failed to respond";
+        case device_errc::gateway_path_unavailable: return "gateway path unavailable";
+        case device_errc::gateway_target_failed: return "gateway target device failed to respond";
         }
         return "unknown Modbus exception code";
     }
@@ -43,11 +46,11 @@ inline const std::error_category& device_category() noexcept {
     return instance;
 }
 
-inline std::error_code make_error_code(exception_code e) noexcept {
+inline std::error_code make_error_code(device_errc e) noexcept {
     return {static_cast<int>(e), device_category()};
 }
 
 } // namespace ferrule::modbus
 
 template <>
-struct std::is_error_code_enum<ferrule::modbus::exception_code> : std::true_type {};
+struct std::is_error_code_enum<ferrule::modbus::device_errc> : std::true_type {};

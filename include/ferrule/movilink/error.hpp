@@ -23,26 +23,37 @@ enum class error_class : std::uint8_t {
     other = 8, // drive return codes: see the additional code
 };
 
-// Additional codes of error class 8, code 0 (SC01 p.66; MTB for 0x1F-0x29).
-enum class additional_code : std::uint16_t {
-    no_error = 0x00,
-    invalid_index = 0x10,
-    not_implemented = 0x11,
-    read_only = 0x12,
-    parameter_lock = 0x13,
-    factory_setting_active = 0x14,
-    value_too_large = 0x15,
-    value_too_small = 0x16,
-    option_missing = 0x17,
-    system_software = 0x18,
-    access_via_x13_only = 0x19,
-    access_via_diagnostic_only = 0x1A,
-    access_protected = 0x1B,
-    controller_inhibit_required = 0x1C,
-    invalid_value = 0x1D,
-    factory_setting_activated = 0x1E,
-    not_saved_in_eeprom = 0x1F,
-    output_stage_enabled = 0x20,
+// The drive's error reply as an error_code enum. Its value is the parameter channel's data
+// word, class << 24 | code << 16 | additional code, so any reply keeps all the drive said;
+// named here: class 8 ("other") code 0 with the additional codes of SC01 p.66 (MTB for
+// 0x1F-0x29), and the special return codes of classes 5 and 6 (SC01 p.46).
+enum class device_errc : std::uint32_t {
+    invalid_index = error_data(8, 0, 0x10),
+    not_implemented = error_data(8, 0, 0x11),
+    read_only = error_data(8, 0, 0x12),
+    parameter_lock = error_data(8, 0, 0x13),
+    factory_setting_active = error_data(8, 0, 0x14),
+    value_too_large = error_data(8, 0, 0x15),
+    value_too_small = error_data(8, 0, 0x16),
+    option_missing = error_data(8, 0, 0x17),
+    system_software = error_data(8, 0, 0x18),
+    access_via_x13_only = error_data(8, 0, 0x19),
+    access_via_diagnostic_only = error_data(8, 0, 0x1A),
+    access_protected = error_data(8, 0, 0x1B),
+    controller_inhibit_required = error_data(8, 0, 0x1C),
+    invalid_value = error_data(8, 0, 0x1D),
+    factory_setting_activated = error_data(8, 0, 0x1E),
+    not_saved_in_eeprom = error_data(8, 0, 0x1F),
+    output_stage_enabled = error_data(8, 0, 0x20),
+    end_of_file = error_data(8, 0, 0x21),
+    communication_order = error_data(8, 0, 0x22),
+    ipos_stop_required = error_data(8, 0, 0x23),
+    autosetup = error_data(8, 0, 0x24),
+    encoder_nameplate = error_data(8, 0, 0x25),
+    plc_state = error_data(8, 0, 0x29),
+    illegal_service = error_data(5, 5, 0),        // service code in the management byte
+    internal_communication = error_data(6, 2, 0), // repeat the service
+    data_length = error_data(6, 8, 0),            // data length is not 4 bytes
 };
 
 inline const char* error_class_text(std::uint8_t c) noexcept {
@@ -125,12 +136,16 @@ inline const std::error_category& device_category() noexcept {
     return instance;
 }
 
+inline std::error_code make_error_code(device_errc e) noexcept {
+    return {static_cast<int>(e), device_category()};
+}
+
 // The error_code for a parameter channel with the status bit set. The value is the
 // channel's data word (class << 24 | code << 16 | additional), so it round-trips.
 inline std::error_code make_device_error(std::uint32_t error_data_word) noexcept {
     // A data word of 0 would read as "no error"; class 0 is not defined, keep it visible.
-    return {static_cast<int>(error_data_word == 0 ? 0x80000000u : error_data_word),
-            device_category()};
+    return make_error_code(
+        static_cast<device_errc>(error_data_word == 0 ? 0x80000000u : error_data_word));
 }
 inline std::error_code make_device_error(const param_channel& p) noexcept {
     return make_device_error(p.data);
@@ -148,3 +163,6 @@ inline device_error_fields fields_of(std::error_code ec) noexcept {
 }
 
 } // namespace ferrule::movilink
+
+template <>
+struct std::is_error_code_enum<ferrule::movilink::device_errc> : std::true_type {};

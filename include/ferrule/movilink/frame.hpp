@@ -116,7 +116,7 @@ public:
 
     struct step {
         std::size_t consumed = 0;
-        decoder::status status = status::need_more;
+        decoder::status what = status::need_more;
         std::error_code ec{};
     };
 
@@ -161,7 +161,7 @@ public:
                     return fail(s, errc::bad_checksum);
                 buf_[size_++] = b;
                 state_ = state::complete;
-                s.status = status::frame;
+                s.what = status::frame;
                 return s;
             }
         }
@@ -193,7 +193,7 @@ private:
         skipped_ += size_ + 1;
         size_ = 0;
         state_ = state::skip;
-        s.status = status::error;
+        s.what = status::error;
         s.ec = make_error_code(e);
         return s;
     }

@@ -113,13 +113,13 @@ public:
         }
         last_activity_ = now;
         const auto step = decoder_.feed(in);
-        if (step.status == decoder::status::error) {
+        if (step.what == decoder::status::error) {
             // SC01 p.19: after a broken telegram wait two start pauses.
             mark_activity(now, 2 * cfg_.start_pause);
             fail_attempt(step.ec);
             return;
         }
-        if (step.status == decoder::status::frame) {
+        if (step.what == decoder::status::frame) {
             if (step.consumed < in.size()) {
                 // More bytes behind a complete telegram: the line was not clean.
                 mark_activity(now, 2 * cfg_.start_pause);

@@ -93,7 +93,7 @@ public:
             const std::size_t from = offset;
             const auto step = decoder_.feed(in.subspan(offset));
             offset += step.consumed;
-            if (step.status == decoder::status::error) {
+            if (step.what == decoder::status::error) {
                 // Bytes right behind a request also spoil it: the line was not clean.
                 request_pending_ = false;
                 if (step.ec == errc::bad_checksum)
@@ -105,7 +105,7 @@ public:
                 skipping_ = true;
                 return;
             }
-            if (step.status == decoder::status::frame)
+            if (step.what == decoder::status::frame)
                 accept(now - cfg_.format.chars_time(in.size() - offset));
         }
     }

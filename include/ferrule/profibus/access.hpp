@@ -55,7 +55,7 @@ std::error_code chk_cfg(S& stream, master& m, std::uint8_t da, std::span<const s
     return detail::transact(stream, m, m.start_chk_cfg(da, cfg));
 }
 
-// Get_Cfg (SAP 59): the slave's configuration identifiers, in m.reply_data().
+// Get_Cfg (SAP 59): the slave's configuration identifiers, in m.reply().
 template <session_stream S>
 std::error_code get_cfg(S& stream, master& m, std::uint8_t da) {
     return detail::transact(stream, m, m.start_get_cfg(da));
@@ -68,7 +68,7 @@ std::error_code data_exchange(S& stream, master& m, std::uint8_t da,
                               std::span<const std::uint8_t> outputs,
                               std::span<std::uint8_t> inputs_out) {
     if (auto ec = detail::transact(stream, m, m.start_data_exchange(da, outputs))) return ec;
-    const auto in = m.reply_data();
+    const auto in = m.reply();
     if (in.size() != inputs_out.size()) return errc::malformed;
     for (std::size_t i = 0; i < in.size(); ++i) inputs_out[i] = in[i];
     return {};
@@ -85,20 +85,20 @@ std::error_code send_global_control(S& stream, master& m, const global_control& 
 }
 
 // What a Slave_Diag read during start-up says of slave and master `master`: empty when the
-// slave is ready for Data_Exchange; device_error::master_lock when Diag.Master_Add names
+// slave is ready for Data_Exchange; device_errc::master_lock when Diag.Master_Add names
 // another master (the slave acknowledged Set_Prm and Chk_Cfg but did not take them); else
 // prm_fault or cfg_fault when the diagnosis says so, or not_ready.
 inline std::error_code start_up_verdict(const slave_diag& d, std::uint8_t master) noexcept {
-    if (locked_to_other(d, master)) return device_error::master_lock;
+    if (locked_to_other(d, master)) return device_errc::master_lock;
     if (d.ready()) return {};
-    if (d.status1 & diag::prm_fault) return device_error::prm_fault;
-    if (d.status1 & diag::cfg_fault) return device_error::cfg_fault;
-    return device_error::not_ready;
+    if (d.status1 & diag::prm_fault) return device_errc::prm_fault;
+    if (d.status1 & diag::cfg_fault) return device_errc::cfg_fault;
+    return device_errc::not_ready;
 }
 
 // The master's start-up of slave `da` (§B.6): FDL_Status → Slave_Diag → Set_Prm → Chk_Cfg →
 // Slave_Diag until ready() (at most diag_polls times). The slave's FCB starts over
-// (reset_fcb). Returns the first error, device_error::master_lock at once, else the verdict
+// (reset_fcb). Returns the first error, device_errc::master_lock at once, else the verdict
 // of the last diagnosis (start_up_verdict).
 template <session_stream S>
 std::error_code bring_up(S& stream, master& m, std::uint8_t da, const prm_data& p,
@@ -113,7 +113,7 @@ std::error_code bring_up(S& stream, master& m, std::uint8_t da, const prm_data& 
     for (unsigned i = 0; i < diag_polls; ++i) {
         if (auto ec = read_slave_diag(stream, m, da, d)) return ec;
         verdict = start_up_verdict(d, m.config().address);
-        if (!verdict || verdict == device_error::master_lock) return verdict;
+        if (!verdict || verdict == device_errc::master_lock) return verdict;
     }
     return verdict;
 }

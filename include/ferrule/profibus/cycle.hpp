@@ -167,7 +167,7 @@ private:
         m_.clear();
         if (ec) return bring_up_failed(ec, now);
         if (const auto verdict = start_up_verdict(d, m_.config().address)) {
-            if (verdict == device_error::master_lock || ++polls_ >= cfg_.diag_polls)
+            if (verdict == device_errc::master_lock || ++polls_ >= cfg_.diag_polls)
                 bring_up_failed(verdict, now);
             return;
         }
@@ -177,7 +177,7 @@ private:
 
     void exchanged(std::error_code ec, time_point now) noexcept {
         cycle_slave& s = current();
-        const auto in = m_.reply_data();
+        const auto in = m_.reply();
         if (!ec && in.size() != s.inputs.size()) ec = errc::malformed;
         const bool dh = m_.data_high();
         m_.clear();

@@ -12,7 +12,7 @@
 
 namespace ferrule::profibus {
 
-enum class device_error : int {
+enum class device_errc : int {
     user_error = static_cast<int>(response_fn::user_error),             // UE
     no_resource = static_cast<int>(response_fn::no_resource),           // RR
     sap_not_active = static_cast<int>(response_fn::sap_not_active),     // RS
@@ -31,15 +31,15 @@ public:
     std::string message(int ev) const override { return describe(ev); }
 
     static const char* describe(int ev) noexcept {
-        switch (static_cast<device_error>(ev)) {
-        case device_error::user_error: return "slave: user error (UE)";
-        case device_error::no_resource: return "slave: no resources for the request (RR)";
-        case device_error::sap_not_active: return "slave: SAP not activated (RS)";
-        case device_error::no_response_data: return "slave: no response data (NR)";
-        case device_error::prm_fault: return "slave: parameter fault (Prm_Fault)";
-        case device_error::cfg_fault: return "slave: configuration fault (Cfg_Fault)";
-        case device_error::not_ready: return "slave: not ready for data exchange";
-        case device_error::master_lock: return "slave: locked to another master (Master_Lock)";
+        switch (static_cast<device_errc>(ev)) {
+        case device_errc::user_error: return "slave: user error (UE)";
+        case device_errc::no_resource: return "slave: no resources for the request (RR)";
+        case device_errc::sap_not_active: return "slave: SAP not activated (RS)";
+        case device_errc::no_response_data: return "slave: no response data (NR)";
+        case device_errc::prm_fault: return "slave: parameter fault (Prm_Fault)";
+        case device_errc::cfg_fault: return "slave: configuration fault (Cfg_Fault)";
+        case device_errc::not_ready: return "slave: not ready for data exchange";
+        case device_errc::master_lock: return "slave: locked to another master (Master_Lock)";
         }
         return "unknown PROFIBUS slave error";
     }
@@ -50,7 +50,7 @@ inline const std::error_category& device_category() noexcept {
     return instance;
 }
 
-inline std::error_code make_error_code(device_error e) noexcept {
+inline std::error_code make_error_code(device_errc e) noexcept {
     return {static_cast<int>(e), device_category()};
 }
 
@@ -68,4 +68,4 @@ inline std::error_code response_error(response_fn f) noexcept {
 } // namespace ferrule::profibus
 
 template <>
-struct std::is_error_code_enum<ferrule::profibus::device_error> : std::true_type {};
+struct std::is_error_code_enum<ferrule::profibus::device_errc> : std::true_type {};

@@ -201,7 +201,7 @@ public:
     bool succeeded() const noexcept { return !error_; }
     // The data unit (SAP bytes excluded) of the last successful reply: diagnosis, cfg bytes,
     // inputs; empty for a short acknowledgement. Valid until the next start.
-    std::span<const std::uint8_t> reply_data() const noexcept { return {rx_.data(), rx_size_}; }
+    std::span<const std::uint8_t> reply() const noexcept { return {rx_.data(), rx_size_}; }
     // The last successful Slave_Diag's diagnosis; ext spans the session's buffer, valid until
     // the next start.
     const slave_diag& diag() const noexcept { return diag_; }
@@ -399,7 +399,7 @@ private:
         for (std::size_t i = 0; i < rx_size_; ++i) rx_[i] = t.data[i];
         response_fn_ = fn;
         reply_frame_ = t.frame;
-        if (service_ == service::slave_diag) diag_ = *parse_slave_diag(reply_data());
+        if (service_ == service::slave_diag) diag_ = *parse_slave_diag(reply());
         if (service_ == service::data_exchange) {
             data_high_ = fn == response_fn::data_high;
             if (data_high_) ++stats_.data_high;
