@@ -14,6 +14,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -28,6 +29,39 @@ namespace ferrule::test {
 
 // Not an error of ferrule's: what a test sees in the outcome came from the stream.
 inline const std::error_code injected = std::make_error_code(std::errc::io_error);
+
+// A master after one transaction that failed with `expected`: free again, its outcome kept,
+// counted once as failed and never as a success.
+template <class Master>
+void failed_once(const Master& m, std::error_code expected) {
+    CHECK(m.error() == expected);
+    CHECK_FALSE(m.busy());
+    CHECK(m.stats().transactions == 1);
+    CHECK(m.stats().succeeded == 0);
+    CHECK(m.stats().failed == 1);
+}
+
+// A blocking transaction (run()) whose I/O operation k failed: it ended right there, with the
+// stream's error, and sent nothing again.
+template <class Master>
+void ended_at_failure(const mock_serial& line, const Master& m, std::size_t k) {
+    CHECK(line.io_operations() == k);
+    failed_once(m, injected);
+    CHECK(m.stats().resends == 0);
+}
+
+// Steps a poll_driver, 100 us of virtual time apart and `limit` steps at the most, until
+// `count()` goes up: a session that never finishes (movilink::cyclic, lecom::poller,
+// profibus::cycle) has ended its next transaction. Returns by how much it went up.
+template <class Driver, class Count>
+std::uint32_t step_until_next(mock_serial& line, Driver& driver, Count count, int limit = 10'000) {
+    const std::uint32_t before = count();
+    for (int i = 0; i < limit && count() == before; ++i) {
+        driver.step();
+        line.advance(std::chrono::microseconds(100));
+    }
+    return count() - before;
+}
 
 template <class Rig, class Transaction, class Failed, class Succeeded>
 void failure_sweep(Transaction transaction, Failed failed, Succeeded succeeded,

@@ -128,16 +128,11 @@ struct cycle_rig {
                      .inputs = in};
         REQUIRE(pass() == 1); // brought up and exchanging
     }
-    // Steps the driver, 100 us of virtual time apart, until the pass under way ends; the
-    // Data_Exchanges it carried.
+    // Steps the driver until the pass under way ends; the Data_Exchanges it carried.
     std::size_t pass() {
         in = untouched;
-        const std::uint32_t passes = c.passes();
-        for (int i = 0; i < 100'000 && c.passes() == passes; ++i) {
-            driver.step();
-            line.advance(100us);
-        }
-        REQUIRE(c.passes() == passes + 1);
+        REQUIRE(ferrule::test::step_until_next(
+                    line, driver, [&] { return c.passes(); }, 100'000) == 1);
         return c.last_pass_exchanges();
     }
 };
