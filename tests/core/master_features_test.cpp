@@ -54,16 +54,16 @@ concept latches_faults = master_features<M> && requires(M& m, const M& c) {
 static_assert(latches_faults<ferrule::movilink::master>);
 static_assert(latches_faults<ferrule::dimetix::sensor>);
 static_assert(latches_faults<ferrule::memobus::master>);
-static_assert(master_features<ferrule::lecom::master>);
+static_assert(latches_faults<ferrule::lecom::master>);
 static_assert(
     std::same_as<
         std::remove_cvref_t<decltype(std::declval<const ferrule::lecom::poller<>&>().session())>,
         ferrule::lecom::master>);
-static_assert(master_features<ferrule::modbus::client>);
+static_assert(latches_faults<ferrule::modbus::client>);
 static_assert(master_features<ferrule::modbus::basic_client<
                   ferrule::modbus::link_mode::rtu,
                   ferrule::modbus::functions<ferrule::modbus::function::read_holding_registers>>>);
-static_assert(master_features<ferrule::profibus::master>);
+static_assert(latches_faults<ferrule::profibus::master>);
 
 } // namespace
 

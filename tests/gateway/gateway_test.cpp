@@ -365,7 +365,7 @@ TEST_CASE("gateway: a lost DP reply is repeated from the stored one, the command
     // its stored reply and executes nothing again.
     s.rig.drop_dp_replies(1);
     REQUIRE_FALSE(s.exchange(cmd, in));
-    CHECK(s.master.stats().retries == 1);
+    CHECK(s.master.stats().resends == 1);
     CHECK(s.rig.core().dp().stats().repeats == 1);
     for (int cycle = 0; cycle < 40 && in != cmd; ++cycle) REQUIRE_FALSE(s.exchange(cmd, in));
     CHECK(in == cmd);

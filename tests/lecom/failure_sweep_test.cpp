@@ -176,3 +176,29 @@ void answered_setpoint(station_rig&, const ferrule::test::served& s) {
 TEST_CASE("lecom station failure sweep", "[lecom][slave][sweep]") {
     ferrule::test::station_sweep<station_rig>(serve_read, answered_setpoint);
 }
+
+TEST_CASE("lecom master: fault_threshold failed attempts in a row latch the fault",
+          "[lecom][master][latch]") {
+    master_rig r;
+    r.m = master(master_config{.fault_threshold = 4});
+    r.bus.drop_replies(3); // the first read: 3 attempts, 3 failures in a row
+    CHECK(read_c0046(r).error() == errc::timeout);
+    CHECK(r.m.consecutive_failures() == 3);
+    CHECK_FALSE(r.m.fault_latched());
+    r.bus.drop_replies(1); // the 4th failure in a row latches: no resend
+    CHECK(read_c0046(r).error() == errc::timeout);
+    CHECK(r.m.attempts() == 1);
+    CHECK(r.m.fault_latched());
+    const std::size_t writes = r.line.writes();
+    CHECK(read_c0046(r).error() == errc::fault_latched);
+    CHECK(r.line.writes() == writes); // refused before anything was sent
+    r.m.reset_fault();
+    CHECK(r.m.consecutive_failures() == 0);
+    read_setpoint(r, read_c0046(r));
+
+    r.bus.drop_replies(2); // a success clears the count: 2 + 2 failures latch nothing
+    read_setpoint(r, read_c0046(r));
+    r.bus.drop_replies(2);
+    read_setpoint(r, read_c0046(r));
+    CHECK_FALSE(r.m.fault_latched());
+}

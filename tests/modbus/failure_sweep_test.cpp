@@ -159,3 +159,52 @@ TEST_CASE("modbus RTU server failure sweep", "[modbus][server][sweep]") {
 TEST_CASE("modbus TCP server failure sweep", "[modbus][server][tcp][sweep]") {
     ferrule::test::station_sweep<station_rig<false>>(serve_read<false>, answered_ramp<false>);
 }
+
+TEST_CASE("modbus client: fault_threshold failed attempts in a row latch the fault",
+          "[modbus][client][latch]") {
+    client_rig<true> r;
+    client_config cfg = client_cfg(true);
+    cfg.fault_threshold = 4;
+    r.c = client(cfg);
+    r.bus.drop_replies(3); // the first read: 3 attempts, 3 failures in a row
+    CHECK(read_ramp(r) == errc::timeout);
+    CHECK(r.c.consecutive_failures() == 3);
+    CHECK_FALSE(r.c.fault_latched());
+    // An exception response is the 4th failure in a row: latched.
+    std::array<std::uint16_t, 1> reserved{};
+    CHECK(read_holding_registers(r.line, r.c, 1, 0x0001, reserved) ==
+          device_errc::illegal_data_address);
+    CHECK(r.c.fault_latched());
+    const std::size_t writes = r.line.writes();
+    CHECK(read_ramp(r) == errc::fault_latched);
+    CHECK(r.out == untouched);
+    CHECK(r.line.writes() == writes); // refused before anything was sent
+    r.c.reset_fault();
+    CHECK(r.c.consecutive_failures() == 0);
+    read_the_ramp(r, read_ramp(r));
+
+    r.bus.drop_replies(2); // a success clears the count: 2 + 3 failures latch nothing
+    read_the_ramp(r, read_ramp(r));
+    CHECK(r.c.consecutive_failures() == 0);
+    r.bus.drop_replies(3);
+    CHECK(read_ramp(r) == errc::timeout);
+    CHECK(r.c.consecutive_failures() == 3);
+    CHECK_FALSE(r.c.fault_latched());
+}
+
+TEST_CASE("modbus client without a fault latch: failures never latch", "[modbus][client][latch]") {
+    sim::bus<1> bus;
+    bus.add(server_cfg(true));
+    mock_serial line{default_format, &bus};
+    client_config cfg = client_cfg(true);
+    cfg.fault_threshold = 1;
+    basic_client<link_mode::rtu, all_functions, ferrule::no_fault_latch> c{cfg};
+    bus.drop_replies(6);
+    registers out = untouched;
+    for (int i = 0; i < 2; ++i)
+        CHECK(read_holding_registers(line, c, 1, reg::max_frequency, out) == errc::timeout);
+    CHECK(c.attempts() == 3); // resent while retries are left, as with the latch
+    CHECK_FALSE(c.fault_latched());
+    REQUIRE_FALSE(read_holding_registers(line, c, 1, reg::max_frequency, out));
+    CHECK(out == ramp);
+}

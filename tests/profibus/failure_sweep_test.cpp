@@ -87,7 +87,7 @@ TEST_CASE("profibus master failure sweep", "[profibus][master][sweep]") {
         [](master_rig& r, std::error_code ec, std::size_t) {
             nothing_exchanged(r, ec, injected);
             CHECK(r.m.attempts() <= 1); // 0: it failed while the line was kept idle (TSYN)
-            CHECK(r.m.stats().retries == r.before.retries);
+            CHECK(r.m.stats().resends == r.before.resends);
         },
         exchanged);
 }
@@ -99,7 +99,7 @@ TEST_CASE("profibus master: a silent slave, then the end of the stream",
     nothing_exchanged(r, exchange(r), errc::timeout);
     CHECK(r.m.attempts() == 2);
     CHECK(r.m.stats().timeouts == r.before.timeouts + 2);
-    CHECK(r.m.stats().retries == r.before.retries + 1);
+    CHECK(r.m.stats().resends == r.before.resends + 1);
     exchanged(r, exchange(r));
 
     master_rig closed;
@@ -205,4 +205,28 @@ void answered_inputs(station_rig& r, const ferrule::test::served& s) {
 
 TEST_CASE("profibus slave failure sweep", "[profibus][slave][sweep]") {
     ferrule::test::station_sweep<station_rig>(serve_exchange, answered_inputs);
+}
+
+TEST_CASE("profibus master: fault_threshold failed attempts in a row latch the fault",
+          "[profibus][master][latch]") {
+    master_rig r;
+    master_config cfg;
+    cfg.fault_threshold = 3;
+    r.m = master(cfg); // retries 1: two attempts a transaction
+    REQUIRE_FALSE(bring_up(r.line, r.m, 8, locked_no_watchdog(), cfg_2in_2out));
+    r.bus.drop_replies(2);
+    CHECK(exchange(r) == errc::timeout);
+    CHECK(r.m.consecutive_failures() == 2);
+    CHECK_FALSE(r.m.fault_latched());
+    r.bus.drop_replies(1); // the 3rd failure in a row latches: no resend
+    CHECK(exchange(r) == errc::timeout);
+    CHECK(r.m.attempts() == 1);
+    CHECK(r.m.fault_latched());
+    const std::size_t writes = r.line.writes();
+    CHECK(exchange(r) == errc::fault_latched);
+    CHECK(r.in == untouched);
+    CHECK(r.line.writes() == writes); // refused before anything was sent
+    r.m.reset_fault();
+    exchanged(r, exchange(r));
+    CHECK_FALSE(r.m.fault_latched());
 }

@@ -204,7 +204,7 @@ TEST_CASE("profibus master bring_up: the §B.6 sequence, FCB toggling and 33 tbi
     }
     CHECK(m.stats().transactions == 7);
     CHECK(m.stats().succeeded == 7);
-    CHECK(m.stats().retries == 0);
+    CHECK(m.stats().resends == 0);
 }
 
 TEST_CASE("profibus master golden Set_Prm 0x7D and Chk_Cfg 0x6D", "[profibus][master]") {
@@ -282,7 +282,7 @@ TEST_CASE("profibus master: a retry after a timeout keeps the FCB; the attempt e
     CHECK(reqs[3].data == dx_req_7d);
     CHECK(reqs[2].start == reqs[1].end + slot);
     CHECK(m.stats().timeouts == 1);
-    CHECK(m.stats().retries == 1);
+    CHECK(m.stats().resends == 1);
     CHECK(m.stats().succeeded == 3);
     CHECK(m.stats().failed == 0);
 }
@@ -327,7 +327,7 @@ TEST_CASE("profibus master: a reply with a bad FCS is retried with the same FCB"
     REQUIRE_FALSE(data_exchange(line, m, 8, out_1234, in));
     CHECK(in == std::array<std::uint8_t, 2>{0xAB, 0xCD});
     CHECK(m.stats().bad_checksums == 1);
-    CHECK(m.stats().retries == 1);
+    CHECK(m.stats().resends == 1);
     CHECK(peer.mismatches() == 0);
     const auto reqs = requests(line);
     REQUIRE(reqs.size() == 3);
@@ -376,7 +376,7 @@ TEST_CASE("profibus master: RS is the slave's answer, a device error, not retrie
     CHECK(m.attempts() == 1);
     CHECK(peer.steps_done() == 2);
     CHECK(m.stats().device_errors == 1);
-    CHECK(m.stats().retries == 0);
+    CHECK(m.stats().resends == 0);
     CHECK(m.stats().failed == 1);
     // The slave answered: the FCB goes on toggling.
     REQUIRE_FALSE(data_exchange(line, m, 8, out_1234, in));

@@ -30,4 +30,19 @@ private:
     bool latched_ = false;
 };
 
+// The same interface for a master that keeps no latch, where a firmware image has no byte to
+// spare: a failed attempt is sent again while retries are left, and nothing ever latches.
+class no_fault_latch {
+public:
+    constexpr bool retry(unsigned attempts, unsigned retries, unsigned,
+                         bool may_retry = true) noexcept {
+        return may_retry && attempts <= retries;
+    }
+    constexpr void succeeded() noexcept {}
+
+    constexpr bool fault_latched() const noexcept { return false; }
+    constexpr unsigned consecutive_failures() const noexcept { return 0; }
+    constexpr void reset_fault() noexcept {}
+};
+
 } // namespace ferrule

@@ -49,6 +49,7 @@
 #include <system_error>
 
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/fault_latch.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
@@ -65,7 +66,8 @@ struct master_config {
     duration response_timeout = lecom::response_timeout; // from the end of the request
     duration turnaround = duration::zero(); // quiet line after a reply / timeout, before a request
     duration broadcast_spacing = lecom::processing_time; // after a SEND to 00 / x0 (no reply)
-    unsigned retries = 2; // resends after the first attempt (S1 §8.3.5: "limited")
+    unsigned retries = 2;         // resends after the first attempt (S1 §8.3.5: "limited")
+    unsigned fault_threshold = 0; // failed attempts in a row that latch the fault; 0: never
     bool discard_stale_input = true;
 };
 
@@ -157,6 +159,12 @@ public:
     const master_stats& stats() const noexcept { return d_.stats; }
     const master_config& config() const noexcept { return cfg_; }
 
+    // fault_threshold failed attempts in a row latch a fault: start() then returns
+    // errc::fault_latched until reset_fault().
+    bool fault_latched() const noexcept { return d_.latch.fault_latched(); }
+    unsigned consecutive_failures() const noexcept { return d_.latch.consecutive_failures(); }
+    void reset_fault() noexcept { d_.latch.reset_fault(); }
+
 private:
     enum class state : std::uint8_t { idle, pending_send, awaiting, done };
     // Where the reply framing is: between telegrams, after STX, after ETX.
@@ -165,6 +173,7 @@ private:
     // A RECEIVE when `v` is null, else a SEND of *v.
     std::error_code begin(std::uint8_t address, const code_address& c, const value* v) noexcept {
         if (busy()) return errc::busy;
+        if (d_.latch.fault_latched()) return errc::fault_latched;
         // request_bytes() keeps the last request if this one is refused.
         std::array<std::uint8_t, max_request_length> tx;
         const std::size_t n = encode_request(address, c, v, tx.data());
@@ -266,6 +275,7 @@ private:
     }
 
     void succeed() noexcept {
+        d_.latch.succeeded();
         ++d_.stats.succeeded;
         finish({});
     }
@@ -282,7 +292,7 @@ private:
     // A failed attempt, counted in `counter`.
     void fail(std::error_code ec, std::uint32_t& counter, bool may_retry) noexcept {
         ++counter;
-        if (may_retry && d_.attempts <= cfg_.retries) {
+        if (d_.latch.retry(d_.attempts, cfg_.retries, cfg_.fault_threshold, may_retry)) {
             d_.error = ec; // the cause so far, replaced by the final outcome
             d_.state = state::pending_send;
             return;
@@ -320,6 +330,7 @@ private:
         time_point send_after = time_point::min();
         time_point deadline{}; // end of the request + response_timeout (broadcast_spacing)
         stored_error error{};
+        fault_latch latch{};
     };
 
     master_config cfg_;

@@ -22,16 +22,17 @@
 namespace ferrule::modbus {
 
 namespace detail {
-template <session_stream S, link_mode L, function_set F>
-std::error_code transact(S& stream, basic_client<L, F>& c, std::uint8_t unit, const request& r) {
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code transact(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                         const request& r) {
     if (auto ec = c.start(unit, r)) return ec;
     const std::error_code ec = run(stream, c);
     if (ec == errc::no_response_expected) return {};
     return ec;
 }
 
-template <session_stream S, link_mode L, function_set F>
-std::error_code read_bits(S& stream, basic_client<L, F>& c, std::uint8_t unit, function fc,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code read_bits(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit, function fc,
                           std::uint16_t address, std::span<bool> out) {
     if (out.size() > max_read_bits) return errc::invalid_argument;
     request r;
@@ -44,8 +45,8 @@ std::error_code read_bits(S& stream, basic_client<L, F>& c, std::uint8_t unit, f
     return {};
 }
 
-template <session_stream S, link_mode L, function_set F>
-std::error_code read_regs(S& stream, basic_client<L, F>& c, std::uint8_t unit, function fc,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code read_regs(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit, function fc,
                           std::uint16_t address, std::span<std::uint16_t> out) {
     if (out.size() > max_read_registers) return errc::invalid_argument;
     request r;
@@ -59,36 +60,36 @@ std::error_code read_regs(S& stream, basic_client<L, F>& c, std::uint8_t unit, f
 } // namespace detail
 
 // FC 1 (AP §6.1): out.size() coils from `address`.
-template <session_stream S, link_mode L, function_set F>
-std::error_code read_coils(S& stream, basic_client<L, F>& c, std::uint8_t unit,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code read_coils(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
                            std::uint16_t address, std::span<bool> out) {
     return detail::read_bits(stream, c, unit, function::read_coils, address, out);
 }
 
 // FC 2 (AP §6.2).
-template <session_stream S, link_mode L, function_set F>
-std::error_code read_discrete_inputs(S& stream, basic_client<L, F>& c, std::uint8_t unit,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code read_discrete_inputs(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
                                      std::uint16_t address, std::span<bool> out) {
     return detail::read_bits(stream, c, unit, function::read_discrete_inputs, address, out);
 }
 
 // FC 3 (AP §6.3): out.size() registers from `address`.
-template <session_stream S, link_mode L, function_set F>
-std::error_code read_holding_registers(S& stream, basic_client<L, F>& c, std::uint8_t unit,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code read_holding_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
                                        std::uint16_t address, std::span<std::uint16_t> out) {
     return detail::read_regs(stream, c, unit, function::read_holding_registers, address, out);
 }
 
 // FC 4 (AP §6.4).
-template <session_stream S, link_mode L, function_set F>
-std::error_code read_input_registers(S& stream, basic_client<L, F>& c, std::uint8_t unit,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code read_input_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
                                      std::uint16_t address, std::span<std::uint16_t> out) {
     return detail::read_regs(stream, c, unit, function::read_input_registers, address, out);
 }
 
 // FC 5 (AP §6.5).
-template <session_stream S, link_mode L, function_set F>
-std::error_code write_coil(S& stream, basic_client<L, F>& c, std::uint8_t unit,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code write_coil(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
                            std::uint16_t address, bool on) {
     request r;
     r.function = function::write_single_coil;
@@ -98,8 +99,8 @@ std::error_code write_coil(S& stream, basic_client<L, F>& c, std::uint8_t unit,
 }
 
 // FC 6 (AP §6.6).
-template <session_stream S, link_mode L, function_set F>
-std::error_code write_register(S& stream, basic_client<L, F>& c, std::uint8_t unit,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code write_register(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
                                std::uint16_t address, std::uint16_t value) {
     request r;
     r.function = function::write_single_register;
@@ -109,8 +110,8 @@ std::error_code write_register(S& stream, basic_client<L, F>& c, std::uint8_t un
 }
 
 // FC 15 (AP §6.11): values.size() coils from `address`.
-template <session_stream S, link_mode L, function_set F>
-std::error_code write_coils(S& stream, basic_client<L, F>& c, std::uint8_t unit,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code write_coils(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
                             std::uint16_t address, std::span<const bool> values) {
     if (values.size() > max_write_bits) return errc::invalid_argument;
     std::array<std::uint8_t, packed_size(max_write_bits)> packed{};
@@ -125,8 +126,8 @@ std::error_code write_coils(S& stream, basic_client<L, F>& c, std::uint8_t unit,
 }
 
 // FC 16 (AP §6.12): values.size() registers from `address`.
-template <session_stream S, link_mode L, function_set F>
-std::error_code write_registers(S& stream, basic_client<L, F>& c, std::uint8_t unit,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code write_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
                                 std::uint16_t address, std::span<const std::uint16_t> values) {
     if (values.size() > max_write_registers) return errc::invalid_argument;
     std::array<std::uint8_t, 2 * max_write_registers> bytes{};
@@ -141,8 +142,8 @@ std::error_code write_registers(S& stream, basic_client<L, F>& c, std::uint8_t u
 
 // FC 23 (AP §6.17): writes `values` at `write_address`, then reads read_out.size()
 // registers from `read_address` (the server writes first).
-template <session_stream S, link_mode L, function_set F>
-std::error_code read_write_registers(S& stream, basic_client<L, F>& c, std::uint8_t unit,
+template <session_stream S, link_mode L, function_set F, class Latch>
+std::error_code read_write_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
                                      std::uint16_t read_address, std::span<std::uint16_t> read_out,
                                      std::uint16_t write_address,
                                      std::span<const std::uint16_t> values) {
@@ -164,9 +165,9 @@ std::error_code read_write_registers(S& stream, basic_client<L, F>& c, std::uint
 
 // FC 8 (AP §6.8): the data word of the response (the echo, or a counter's value).
 // force_listen_only gets no response and returns 0.
-template <session_stream S, link_mode L, function_set F>
-result<std::uint16_t> diagnostics(S& stream, basic_client<L, F>& c, std::uint8_t unit, diag_sub sub,
-                                  std::uint16_t data = 0) {
+template <session_stream S, link_mode L, function_set F, class Latch>
+result<std::uint16_t> diagnostics(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                                  diag_sub sub, std::uint16_t data = 0) {
     std::array<std::uint8_t, 2> field{};
     store_be16(field.data(), data);
     request r;
@@ -181,8 +182,9 @@ result<std::uint16_t> diagnostics(S& stream, basic_client<L, F>& c, std::uint8_t
 // FC 43 / 14 (AP §6.21): one response of objects from `object_id`; walk response::data
 // with next_device_id_object(), and ask again from next_object_id while more_follows. The
 // spans stay valid until the client's next start().
-template <session_stream S, link_mode L, function_set F>
-result<response> read_device_identification(S& stream, basic_client<L, F>& c, std::uint8_t unit,
+template <session_stream S, link_mode L, function_set F, class Latch>
+result<response> read_device_identification(S& stream, basic_client<L, F, Latch>& c,
+                                            std::uint8_t unit,
                                             device_id_code code = device_id_code::basic,
                                             std::uint8_t object_id = 0) {
     request r;

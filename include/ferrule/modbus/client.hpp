@@ -45,6 +45,7 @@
 #include <type_traits>
 
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/fault_latch.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
@@ -66,6 +67,9 @@ struct client_config {
     unsigned retries = 0;                                 // resends after the first attempt
     bool discard_stale_input = true;
     bool echo_suppression = false; // RTU: skip our own request if it comes back first
+    // Failed attempts in a row that latch the fault; 0: never. 16 bits, where the padding
+    // behind the flags has room: a firmware image's copy of the config does not grow.
+    std::uint16_t fault_threshold = 0;
 };
 
 // Transactions end as succeeded, failed or (broadcasts) neither. The attempt counters
@@ -86,8 +90,10 @@ struct client_stats {
 };
 
 // Fs: the function codes the client can send (function_set); start() refuses others with
-// errc::invalid_argument, and their code is not compiled in.
-template <link_mode Link = link_mode::any, function_set Fs = all_functions>
+// errc::invalid_argument, and their code is not compiled in. Latch: fault_latch, or
+// no_fault_latch for a firmware image that does without it (core/fault_latch.hpp).
+template <link_mode Link = link_mode::any, function_set Fs = all_functions,
+          class Latch = fault_latch>
 class basic_client {
 public:
     constexpr explicit basic_client(const client_config& cfg = {}) noexcept
@@ -101,6 +107,7 @@ public:
     // Out of line: an application starts requests in many places, each would carry a copy.
     [[gnu::noinline]] std::error_code start(std::uint8_t unit, const request& r) noexcept {
         if (busy()) return errc::busy;
+        if (latch_.fault_latched()) return errc::fault_latched;
         if (rtu() && unit > max_unit_address) return errc::invalid_argument;
         const bool broadcast = rtu() && unit == broadcast_address;
         if (broadcast && r.function != function::write_single_coil &&
@@ -211,6 +218,12 @@ public:
 
     const client_stats& stats() const noexcept { return stats_; }
     const client_config& config() const noexcept { return cfg_; }
+
+    // fault_threshold failed attempts in a row (exception responses included) latch a fault:
+    // start() then returns errc::fault_latched until reset_fault().
+    bool fault_latched() const noexcept { return latch_.fault_latched(); }
+    unsigned consecutive_failures() const noexcept { return latch_.consecutive_failures(); }
+    void reset_fault() noexcept { latch_.reset_fault(); }
 
 private:
     constexpr bool rtu() const noexcept {
@@ -358,12 +371,15 @@ private:
         }
         rx_pdu_ = pdu;
         if (pdu[0] & exception_flag) {
-            // An exception response is the server's answer: it is not resent.
+            // An exception response is the server's answer: it is not resent, and it is a
+            // failure in a row for the latch.
+            latch_.retry(attempts_, cfg_.retries, cfg_.fault_threshold, false);
             ++stats_.exceptions;
             ++stats_.failed;
             finish(stored_error(pdu[1], device_category()));
             return;
         }
+        latch_.succeeded();
         ++stats_.succeeded;
         finish({});
     }
@@ -377,7 +393,7 @@ private:
         default: ++stats_.malformed; break;
         }
         error_ = e; // when resent, the cause so far, replaced by the final outcome
-        if (attempts_ <= cfg_.retries) {
+        if (latch_.retry(attempts_, cfg_.retries, cfg_.fault_threshold)) {
             state_ = state::pending_send;
             return;
         }
@@ -418,6 +434,7 @@ private:
     errc decode_error_{};      // garbage or a bad CRC in this attempt (the decoders report errc)
     std::size_t echo_pos_ = 0; // bytes of our echo matched so far
     unsigned attempts_ = 0;
+    [[no_unique_address]] Latch latch_{};
     std::uint16_t transaction_ = 0;
     std::uint8_t unit_ = 0;
     bool no_reply_ = false;

@@ -41,6 +41,7 @@
 #include <system_error>
 
 #include "ferrule/core/error.hpp"
+#include "ferrule/core/fault_latch.hpp"
 #include "ferrule/core/serial_format.hpp"
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
@@ -66,6 +67,7 @@ struct master_config {
     std::uint8_t address = 2;              // this master's station address
     duration slot_time = duration::zero(); // TSL; 0: from the baud rate (slot_time_bits)
     unsigned retries = 1;                  // resends after the first attempt
+    unsigned fault_threshold = 0; // failed attempts in a row that latch the fault; 0: never
 };
 
 // Transactions end as succeeded, failed or (Global_Control) neither. The attempt counters
@@ -80,7 +82,7 @@ struct master_stats {
     std::uint32_t malformed = 0; // garbage, a wrong SAP, FC or shape
     std::uint32_t unexpected_addresses = 0;
     std::uint32_t device_errors = 0; // UE, RR, RS, NR
-    std::uint32_t retries = 0;
+    std::uint32_t resends = 0;
     std::uint32_t data_high = 0; // Data_Exchange replies with DH
 };
 
@@ -226,6 +228,12 @@ public:
 
     const master_stats& stats() const noexcept { return stats_; }
     const master_config& config() const noexcept { return cfg_; }
+
+    // fault_threshold failed attempts in a row latch a fault: every start then returns
+    // errc::fault_latched until reset_fault().
+    bool fault_latched() const noexcept { return latch_.fault_latched(); }
+    unsigned consecutive_failures() const noexcept { return latch_.consecutive_failures(); }
+    void reset_fault() noexcept { latch_.reset_fault(); }
     duration syn_time() const noexcept { return bit_times(cfg_.format.baud, syn_bits); }
 
 private:
@@ -250,6 +258,7 @@ private:
     std::error_code begin(profibus::service s, std::uint8_t da,
                           std::span<const std::uint8_t> du) noexcept {
         if (busy()) return errc::busy;
+        if (latch_.fault_latched()) return errc::fault_latched;
         const bool sdn = s == service::global_control;
         if (da == cfg_.address || da > (sdn ? broadcast_address : max_station_address))
             return errc::invalid_argument;
@@ -288,7 +297,7 @@ private:
     }
 
     session_action send(time_point now) noexcept {
-        if (++attempts_ > 1) ++stats_.retries;
+        if (++attempts_ > 1) ++stats_.resends;
         tx_end_ = now + cfg_.format.chars_time(tx_size_);
         last_rx_ = tx_end_;
         hold(tx_end_);
@@ -404,6 +413,7 @@ private:
             data_high_ = fn == response_fn::data_high;
             if (data_high_) ++stats_.data_high;
         }
+        latch_.succeeded();
         ++stats_.succeeded;
         finish({});
     }
@@ -419,7 +429,7 @@ private:
             ++stats_.device_errors;
         else
             ++stats_.malformed;
-        if (may_retry && attempts_ <= cfg_.retries) {
+        if (latch_.retry(attempts_, cfg_.retries, cfg_.fault_threshold, may_retry)) {
             error_ = ec; // the cause so far, replaced by the final outcome
             state_ = state::pending_send;
             return;
@@ -457,6 +467,7 @@ private:
     stored_error error_{};
     stored_error decode_error_{}; // garbage or an FCS error in this attempt
     unsigned attempts_ = 0;
+    fault_latch latch_{};
     std::uint8_t da_ = 0;
     profibus::response_fn response_fn_ = response_fn::ok;
     profibus::frame reply_frame_ = frame::sd1;
