@@ -202,3 +202,27 @@ TEST_CASE("lecom master: fault_threshold failed attempts in a row latch the faul
     read_setpoint(r, read_c0046(r));
     CHECK_FALSE(r.m.fault_latched());
 }
+
+TEST_CASE("lecom poller: its master never latches, the live list takes the latch's place",
+          "[lecom][poller][latch]") {
+    sim::bus<1> bus;
+    bus.add()->drive.preset(cn::c0046_speed_setpoint, setpoint);
+    mock_serial line{default_format, &bus};
+    poller_config cfg;
+    cfg.master.fault_threshold = 1;
+    poller<> p{cfg};
+    REQUIRE(p.add({1, code(cn::c0046_speed_setpoint)}));
+    ferrule::poll_driver<mock_serial, poller<>> driver{line, p};
+    const auto one_poll = [&] {
+        return ferrule::test::step_until_next(line, driver, [&] { return p.completed(); });
+    };
+
+    bus.drop_replies(3); // the first poll fails: 3 attempts
+    CHECK(one_poll() == 1);
+    CHECK(p.error() == errc::timeout);
+    CHECK(p.session().config().fault_threshold == 0);
+    CHECK_FALSE(p.session().fault_latched());
+    CHECK(one_poll() == 1); // and the drive is polled again
+    CHECK_FALSE(p.error());
+    CHECK(p.state(0).last.fixed == setpoint);
+}
