@@ -104,7 +104,7 @@ class poller {
 
 public:
     explicit poller(const poller_config& cfg = {}) noexcept
-        : m_(unlatched(cfg.master)), offline_after_(cfg.offline_after),
+        : m_(cfg.master), offline_after_(cfg.offline_after),
           offline_interval_(cfg.offline_interval) {}
 
     // Adds an item, due at once; returns its index. invalid_argument for a group address or
@@ -202,14 +202,10 @@ private:
 
     // Starts the next transaction and returns `now`, or returns when the next item is due
     // (never: nothing to do).
-    // The live list takes the fault latch's place (offline_after): the failures of one drive
-    // must not stop the polls of the others, so the master never latches.
-    static constexpr master_config unlatched(master_config cfg) noexcept {
-        cfg.fault_threshold = 0;
-        return cfg;
-    }
-
     time_point start_job(time_point now) noexcept {
+        // The live list takes the fault latch's place (offline_after): the failures of one
+        // drive must not stop the polls of the others, so the master is never left latched.
+        m_.reset_fault();
         t_.sent_at = now;
         if (t_.queued > 0) { // it leaves the queue when it has been sent
             const queued_write& w = t_.writes[t_.head];
