@@ -294,7 +294,7 @@ struct harness {
             if (cmd.id != command::no_id) FERRULE_CHECK(r.id == cmd.id);
             FERRULE_CHECK(s.consecutive_failures() == 0);
         } else if (transport_failed && ec == errc::transport) {
-            return;
+            ++failed; // finished by on_transport_error(), a failed transaction too
         } else {
             ++failed;
             if (ec.category() == device_category()) {

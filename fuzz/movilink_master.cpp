@@ -279,7 +279,7 @@ struct harness {
             FERRULE_CHECK(!expects_response(request.address));
             FERRULE_CHECK(sends == 1 && m.attempts() == 1);
         } else if (transport_failed && ec == errc::transport) {
-            // finished by on_transport_error()
+            ++failed; // finished by on_transport_error(), a failed transaction too
         } else {
             ++failed;
             FERRULE_CHECK(expects_response(request.address));

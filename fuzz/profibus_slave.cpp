@@ -141,7 +141,9 @@ struct harness {
         reply_at = end + bit_times(cfg.baud, min_tsdr);
     }
 
-    // Set_Prm as §B.5 says: the lock, the ident, the watchdog factors; min_TSDR when accepted.
+    // Set_Prm as §B.5 and the Lock_Req / Unlock_Req table say: Unlock_Req releases the slave;
+    // Lock_Req with the right ident and watchdog factors locks it and takes everything;
+    // neither overwrites only min_TSDR (and the user parameters).
     void set_prm(const telegram& t, std::span<const std::uint8_t> du, std::uint8_t& master,
                  call_facts& facts) {
         if (master != diag::no_master && t.sa != master) return;
@@ -151,11 +153,15 @@ struct harness {
             master = diag::no_master;
             return;
         }
-        if (p->ident != ident || (p->watchdog_on() && (p->wd_fact1 == 0 || p->wd_fact2 == 0)))
+        if (p->user.size() > max_data) return;
+        const bool lock = p->station_status & prm::lock_req;
+        if (lock &&
+            (p->ident != ident || (p->watchdog_on() && (p->wd_fact1 == 0 || p->wd_fact2 == 0))))
             return;
-        facts.good_prm = true;
-        if (p->station_status & prm::lock_req) master = t.sa;
         if (p->min_tsdr != 0) min_tsdr = p->min_tsdr;
+        if (!lock) return;
+        facts.good_prm = true;
+        master = t.sa;
     }
 
     // ---- delivery --------------------------------------------------------------------
