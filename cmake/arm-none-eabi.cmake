@@ -20,7 +20,9 @@ set(ferrule_arm_flags
 set(CMAKE_C_FLAGS_INIT   "${ferrule_arm_flags}")
 set(CMAKE_ASM_FLAGS_INIT "${ferrule_arm_flags}")
 set(CMAKE_CXX_FLAGS_INIT "${ferrule_arm_flags} -fno-exceptions -fno-rtti -fno-threadsafe-statics")
-set(CMAKE_EXE_LINKER_FLAGS_INIT "-Wl,--gc-sections --specs=nano.specs --specs=nosys.specs")
+# The board brings its start-up code and linker script (examples/firmware/board/): no crt0, and
+# no system-call stubs, so anything that needs malloc or stdio fails to link.
+set(CMAKE_EXE_LINKER_FLAGS_INIT "-Wl,--gc-sections --specs=nano.specs -nostartfiles")
 
 # Search the host for programs, the target sysroot for everything else.
 set(CMAKE_FIND_ROOT_PATH_MODE_PROGRAM NEVER)

@@ -11,7 +11,7 @@
 #include "ferrule/core/driver.hpp"
 #include "ferrule/dimetix/sensor.hpp"
 
-#include "../common/stm32f4_uart.hpp"
+#include "board.hpp"
 
 namespace {
 constexpr std::uint8_t sensor_id = 1; // sNid of the sensor on the line

@@ -11,7 +11,7 @@
 #include "ferrule/core/driver.hpp"
 #include "ferrule/lecom/poller.hpp"
 
-#include "../common/stm32f4_uart.hpp"
+#include "board.hpp"
 
 namespace {
 constexpr std::uint8_t drives = 6;

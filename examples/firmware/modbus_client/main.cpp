@@ -12,7 +12,7 @@
 #include "ferrule/modbus/client.hpp"
 #include "ferrule/modbus/registers.hpp"
 
-#include "../common/stm32f4_uart.hpp"
+#include "board.hpp"
 
 namespace {
 constexpr std::uint8_t units = 3;

@@ -19,7 +19,7 @@
 #include "ferrule/modbus/registers.hpp"
 
 #include "../common/modbus_ten_functions.hpp"
-#include "../common/stm32f4_uart.hpp"
+#include "board.hpp"
 
 namespace {
 namespace mb = ferrule::modbus;

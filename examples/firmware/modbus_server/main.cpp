@@ -17,7 +17,7 @@
 #include "ferrule/modbus/server.hpp"
 
 #include "../common/modbus_ten_functions.hpp"
-#include "../common/stm32f4_uart.hpp"
+#include "board.hpp"
 
 namespace {
 constexpr auto format = ferrule::modbus::default_format;

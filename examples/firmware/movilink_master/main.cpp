@@ -2,14 +2,16 @@
 // transceiver, 9600 8E1): a super-loop that runs the drive with cyclic 3PD exchanges and
 // reads the heat sink temperature (P014) now and then, without blocking and without heap.
 //
-// The byte_stream below is the only board-specific part; ferrule brings the protocol.
+// It reports on the board's console what a test can check against the drive: each P014
+// reading and, every 100 cycles, the process input data and the stack's high-water mark.
+// The byte_stream over the USART is the only board-specific part; ferrule brings the protocol.
 #include <cstdint>
 #include <span>
 
 #include "ferrule/core/driver.hpp"
 #include "ferrule/movilink/cyclic.hpp"
 
-#include "../common/stm32f4_uart.hpp"
+#include "board.hpp"
 
 namespace {
 constinit board::uart_stream uart(ferrule::movilink::default_format);
@@ -37,9 +39,14 @@ int main() {
         if (drive.cycles() - last_read >= 100 &&
             drive.request_parameter(param_channel::make(service::read, 0x2087))) { // P014
             last_read = drive.cycles();
+            board::report("cycles=", drive.cycles(), " status=", status_word,
+                          " speed=", actual_speed, " stack=", board::stack_high_water());
         }
-        if (drive.parameter_done() && !drive.parameter_error())
+        if (drive.parameter_done() && !drive.parameter_error() &&
+            heat_sink_temperature != drive.parameter_value()) {
             heat_sink_temperature = drive.parameter_value();
+            board::report("P014=", heat_sink_temperature);
+        }
         if (movilink_master.fault_latched()) {
             drive.set_po(0, 0x0000); // rapid stop once the link is back
             movilink_master.reset_fault();

@@ -19,7 +19,7 @@
 #include "ferrule/modbus/constants.hpp"
 #include "ferrule/profibus/constants.hpp"
 
-#include "../common/stm32f4_uart.hpp"
+#include "board.hpp"
 
 namespace {
 constexpr auto dp_format = ferrule::profibus::format(19'200);
