@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages needed to build, test, fuzz, benchmark and cross-compile
-# ferrule, and the Modbus peers its tests talk to (libmodbus, pymodbus, mbpoll, socat). Idempotent: when every package is already installed it does nothing (and needs
+# ferrule, QEMU for the firmware tests, and the Modbus peers its tests talk to (libmodbus, pymodbus, mbpoll, socat). Idempotent: when every package is already installed it does nothing (and needs
 # neither root nor the network); set FERRULE_DEPS_FORCE=1 to run apt-get anyway.
 set -euo pipefail
 
@@ -9,6 +9,8 @@ packages=(
     catch2 libbenchmark-dev libasio-dev libcli11-dev libfmt-dev nlohmann-json3-dev
     clang-14 libclang-rt-14-dev
     gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib binutils-arm-none-eabi
+    # boots the firmware examples (netduinoplus2, an STM32F405) in the tests
+    qemu-system-arm
     pkg-config socat libmodbus-dev mbpoll
     # pymodbus's serial and server modules import these; Debian only recommends them.
     python3-pymodbus python3-serial python3-serial-asyncio
