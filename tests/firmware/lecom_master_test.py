@@ -5,6 +5,7 @@ the actual speeds (C0050) the firmware polls are those `ferrule lecom read` then
 the same simulated drives."""
 import json
 import subprocess
+import time
 
 from qemu import Firmware, Sim, args, check, summary
 
@@ -22,9 +23,10 @@ def lecom(command, address, *rest):
 
 def settled(fw, want_1, want_2, timeout=60):
     """The first speeds report with drive 01 at `want_1` and drive 02 at `want_2` (FIX32)."""
+    deadline = time.monotonic() + timeout
     start = 0
     while True:
-        m = fw.wait_for(SPEEDS, timeout=timeout, start=start)
+        m = fw.wait_for(SPEEDS, timeout=max(0.0, deadline - time.monotonic()), start=start)
         if m is None:
             return None
         speeds = [int(v) for v in m.group(2).split(",")]

@@ -5,6 +5,7 @@ firmware's start-up setpoint (FC 6, 25.00 Hz) arrives at unit 1, which then runs
 from the same simulated VFDs."""
 import json
 import subprocess
+import time
 
 from qemu import Firmware, Sim, args, check, summary
 
@@ -24,9 +25,10 @@ def modbus(command, unit, *rest):
 
 def at_speed(fw, timeout=60):
     """The first reads report with units 1 and 2 at their setpoints: (online, units, stack)."""
+    deadline = time.monotonic() + timeout
     start = 0
     while True:
-        m = fw.wait_for(READS, timeout=timeout, start=start)
+        m = fw.wait_for(READS, timeout=max(0.0, deadline - time.monotonic()), start=start)
         if m is None:
             return None
         units = [[int(v) for v in m.group(i).split(",")] for i in (3, 4, 5)]
