@@ -31,10 +31,12 @@ try:
 finally:
     fw.stop()
 
-# The same simulated sensor, read by the host CLI once QEMU has let go of the line.
+# The same simulated sensor, read by the host CLI once QEMU has let go of the line (with
+# resends: QEMU may have left half a command on it).
 try:
     out = subprocess.run([a.ferrule, "dimetix", "measure", "--port", sim.link, "--address", "1",
-                          "--json"], capture_output=True, text=True, timeout=30).stdout
+                          "--retries", "2", "--json"], capture_output=True, text=True,
+                         timeout=30).stdout
     host = json.loads(out.splitlines()[-1]) if out.strip() else {}
     mm = host.get("distance_mm")
     check("firmware's distance equals the host's reading (0.1 mm)",

@@ -58,8 +58,10 @@ try:
     finally:
         fw.stop()
 
-    # The same simulated drives, read by the host CLI once QEMU has let go of the line.
-    host = {d: {r["code"]: r for r in lecom("read", d, "C0046", "C0050")} for d in (1, 2, 3)}
+    # The same simulated drives, read by the host CLI once QEMU has let go of the line (with
+    # resends: QEMU may have left half a telegram on it).
+    host = {d: {r["code"]: r for r in lecom("read", d, "C0046", "C0050", "--retries", "2")}
+            for d in (1, 2, 3)}
     check("firmware's write arrived: drive 01's C0046 is 1500 rpm",
           host[1].get(46, {}).get("number") == 1500, repr(host[1]))
     host_speeds = [round(host[d][50]["number"] * 10_000) if 50 in host[d] else None

@@ -63,10 +63,12 @@ try:
     finally:
         fw.stop()
 
-    # The same simulated VFDs, read by the host CLI once QEMU has let go of the line.
+    # The same simulated VFDs, read by the host CLI once QEMU has let go of the line (with
+    # resends: QEMU may have left half a frame on it).
     host = {}
     for unit in (1, 2, 3):
-        rc, out = modbus("read", unit, "--start", str(CONTROL_WORD), "--count", "4")
+        rc, out = modbus("read", unit, "--start", str(CONTROL_WORD), "--count", "4",
+                         "--retries", "2")
         host[unit] = out[-1]["registers"] if rc == 0 and out and out[-1].get("ok") else None
     check("firmware's registers of units 1 and 2 equal the host's readings",
           host[1] == units[0] and host[2] == units[1],
