@@ -4,6 +4,10 @@
 // again and again, without blocking and without heap. An error answer gN@Ezzz is kept as
 // its code; a lost link is recovered with sNc.
 //
+// It reports on the board's console what a test can check against the sensor: each change of
+// the link, each distance that differs from the last or follows an error, each error code and,
+// every 100 transactions, the stack's high-water mark.
+//
 // The byte_stream below is the only board-specific part; ferrule brings the protocol.
 #include <cstdint>
 #include <span>
@@ -30,6 +34,8 @@ int main() {
     using namespace ferrule::dimetix;
     ferrule::poll_driver driver(uart, dimetix_sensor);
     (void)dimetix_sensor.start_connect(sensor_id);
+    std::uint32_t transactions = 0;
+    bool failed = false; // the last measurement was an error answer
     for (;;) {
         if (driver.step() != ferrule::session_action::kind::done) continue;
         const std::error_code ec = dimetix_sensor.error();
@@ -37,12 +43,24 @@ int main() {
         dimetix_sensor.clear();
         if (!ec) {
             connected = true;
-            if (!was_connect) value = dimetix_sensor.reply().values[0];
+            if (was_connect) {
+                board::report("connected");
+            } else if (const std::int32_t d = dimetix_sensor.reply().values[0];
+                       failed || value != d) {
+                value = d;
+                failed = false;
+                board::report("distance=", d);
+            }
         } else if (ec.category() == device_category()) {
             error_code = ec.value(); // the sensor answered: the link is fine
-        } else {
+            failed = true;
+            board::report("error=", error_code);
+        } else if (connected) {
             connected = false; // timeouts: back to the start-up, sNc until gN?
+            board::report("disconnected");
         }
+        if (++transactions % 100 == 0)
+            board::report("transactions=", transactions, " stack=", board::stack_high_water());
         static constexpr command measure = distance(sensor_id);
         if (connected)
             (void)dimetix_sensor.start(measure);
