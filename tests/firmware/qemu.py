@@ -43,8 +43,10 @@ class Firmware:
         deadline = time.monotonic() + 10
         while len(self.pty) < len(wanted) and time.monotonic() < deadline:
             self._pump(deadline)
-            for m in re.finditer(rb"char device redirected to (\S+) \(label (\w+)\)", self._err):
-                self.pty[m.group(2).decode()] = m.group(1).decode()
+            # QEMU 7 prints this on stdout (qemu_printf), older ones on stderr.
+            said = self._err.decode(errors="replace") + "\n".join(self.lines)
+            for m in re.finditer(r"char device redirected to (\S+) \(label (\w+)\)", said):
+                self.pty[m.group(2)] = m.group(1)
         if len(self.pty) < len(wanted):
             raise RuntimeError(f"QEMU made no pty for {wanted}: {self._err.decode()!r}")
 
