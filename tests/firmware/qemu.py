@@ -6,6 +6,7 @@ import select
 import subprocess
 import sys
 import time
+import tty
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "cli"))
 from harness import Sim, check, require, summary  # noqa: E402,F401
@@ -49,6 +50,13 @@ class Firmware:
                 self.pty[m.group(2)] = m.group(1)
         if len(self.pty) < len(wanted):
             raise RuntimeError(f"QEMU made no pty for {wanted}: {self._err.decode()!r}")
+        # QEMU reads a pty only while its other end is open, and looks for that once a second
+        # (chardev/char-pty.c): a peer that opens it and asks at once waits up to 1 s for the
+        # guest to hear it. Held open here, raw (no echo of the guest's bytes back to it), the
+        # ptys stay connected for the programs that come and go on them.
+        self._held = [os.open(p, os.O_RDWR | os.O_NOCTTY) for p in self.pty.values()]
+        for fd in self._held:
+            tty.setraw(fd)
 
     def _pump(self, deadline):
         """Reads what QEMU wrote, waiting at most until `deadline`; False once it exited."""
@@ -91,6 +99,8 @@ class Firmware:
         """Ends QEMU; returns the whole console output."""
         self.proc.terminate()
         self.proc.wait(timeout=10)
+        for fd in self._held:
+            os.close(fd)
         return "\n".join(self.lines)
 
 
