@@ -51,9 +51,9 @@ class Firmware:
         if len(self.pty) < len(wanted):
             raise RuntimeError(f"QEMU made no pty for {wanted}: {self._err.decode()!r}")
         # QEMU reads a pty only while its other end is open, and looks for that once a second
-        # (chardev/char-pty.c): a peer that opens it and asks at once waits up to 1 s for the
-        # guest to hear it. Held open here, raw (no echo of the guest's bytes back to it), the
-        # ptys stay connected for the programs that come and go on them.
+        # (chardev/char-pty.c): what a peer sends before QEMU has looked is lost. Held open
+        # here, raw (no echo of the guest's bytes back to it), the ptys stay connected for the
+        # programs that come and go on them; only a test's first request may need a resend.
         self._held = [os.open(p, os.O_RDWR | os.O_NOCTTY) for p in self.pty.values()]
         for fd in self._held:
             tty.setraw(fd)
