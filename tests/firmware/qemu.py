@@ -6,6 +6,7 @@ import select
 import subprocess
 import sys
 import time
+import tty
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "cli"))
 from harness import Sim, check, require, summary  # noqa: E402,F401
@@ -43,10 +44,19 @@ class Firmware:
         deadline = time.monotonic() + 10
         while len(self.pty) < len(wanted) and time.monotonic() < deadline:
             self._pump(deadline)
-            for m in re.finditer(rb"char device redirected to (\S+) \(label (\w+)\)", self._err):
-                self.pty[m.group(2).decode()] = m.group(1).decode()
+            # QEMU 7 prints this on stdout (qemu_printf), older ones on stderr.
+            said = self._err.decode(errors="replace") + "\n".join(self.lines)
+            for m in re.finditer(r"char device redirected to (\S+) \(label (\w+)\)", said):
+                self.pty[m.group(2)] = m.group(1)
         if len(self.pty) < len(wanted):
             raise RuntimeError(f"QEMU made no pty for {wanted}: {self._err.decode()!r}")
+        # QEMU reads a pty only while its other end is open, and looks for that once a second
+        # (chardev/char-pty.c): what a peer sends before QEMU has looked is lost. Held open
+        # here, raw (no echo of the guest's bytes back to it), the ptys stay connected for the
+        # programs that come and go on them; only a test's first request may need a resend.
+        self._held = [os.open(p, os.O_RDWR | os.O_NOCTTY) for p in self.pty.values()]
+        for fd in self._held:
+            tty.setraw(fd)
 
     def _pump(self, deadline):
         """Reads what QEMU wrote, waiting at most until `deadline`; False once it exited."""
@@ -89,6 +99,8 @@ class Firmware:
         """Ends QEMU; returns the whole console output."""
         self.proc.terminate()
         self.proc.wait(timeout=10)
+        for fd in self._held:
+            os.close(fd)
         return "\n".join(self.lines)
 
 

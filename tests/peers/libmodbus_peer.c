@@ -4,6 +4,10 @@
  *   libmodbus_peer tcp-server PORT       serve the peer map on 127.0.0.1:PORT
  *   libmodbus_peer rtu-client TTY UNIT   check a server of the peer map, every function
  *   libmodbus_peer tcp-client PORT UNIT  the same over TCP on 127.0.0.1
+ *   libmodbus_peer rtu-registers TTY UNIT ADDR COUNT [VALUE...]
+ *                                        write the VALUEs to the holding registers from ADDR
+ *                                        (FC 16), then read COUNT from ADDR (FC 3) and print
+ *                                        them in decimal on one line (a server's own map)
  *   libmodbus_peer tcp-client-stray-zeros PORT UNIT
  *                                        eight zero bytes on the connection between two
  *                                        requests: the server closes it at once, libmodbus
@@ -248,10 +252,31 @@ static int stray_zeros(modbus_t* ctx, int unit) {
     return failed ? 1 : 0;
 }
 
+/* rtu-registers: what a server of any map holds, for tests that check it against others. */
+static int registers(modbus_t* ctx, int unit, int address, int count, char** values, int n) {
+    uint16_t regs[MODBUS_MAX_READ_REGISTERS];
+    if (count < 1 || count > MODBUS_MAX_READ_REGISTERS || n > MODBUS_MAX_WRITE_REGISTERS) return 2;
+    modbus_set_slave(ctx, unit);
+    modbus_set_response_timeout(ctx, 1, 0);
+    for (int i = 0; i < n; ++i) regs[i] = (uint16_t)strtoul(values[i], NULL, 0);
+    if (n > 0 && modbus_write_registers(ctx, address, n, regs) != n) {
+        fprintf(stderr, "libmodbus: write: %s\n", modbus_strerror(errno));
+        return 1;
+    }
+    if (modbus_read_registers(ctx, address, count, regs) != count) {
+        fprintf(stderr, "libmodbus: read: %s\n", modbus_strerror(errno));
+        return 1;
+    }
+    for (int i = 0; i < count; ++i) printf(i ? " %u" : "%u", regs[i]);
+    printf("\n");
+    return 0;
+}
+
 int main(int argc, char** argv) {
     if (argc < 3) {
         fprintf(stderr, "usage: %s rtu-server TTY UNIT | tcp-server PORT | rtu-client TTY UNIT "
                         "[--ferrule-extras] | tcp-client PORT UNIT [--ferrule-extras] | "
+                        "rtu-registers TTY UNIT ADDR COUNT [VALUE...] | "
                         "tcp-client-stray-zeros PORT UNIT\n",
                 argv[0]);
         return 2;
@@ -262,8 +287,7 @@ int main(int argc, char** argv) {
     const int rtu = strncmp(mode, "rtu", 3) == 0;
     modbus_t* ctx = rtu ? modbus_new_rtu(argv[2], 19200, 'N', 8, 1)
                         : modbus_new_tcp("127.0.0.1", atoi(argv[2]));
-    if (!ctx || (strstr(mode, "client") && modbus_connect(ctx) < 0) ||
-        (rtu && strstr(mode, "server") && modbus_connect(ctx) < 0)) {
+    if (!ctx || ((rtu || strstr(mode, "client")) && modbus_connect(ctx) < 0)) {
         fprintf(stderr, "libmodbus: %s\n", modbus_strerror(errno));
         return 3;
     }
@@ -276,6 +300,8 @@ int main(int argc, char** argv) {
         rc = serve_tcp(ctx);
     } else if ((strcmp(mode, "rtu-client") == 0 || strcmp(mode, "tcp-client") == 0) && argc > 3) {
         rc = client(ctx, atoi(argv[3]), extras);
+    } else if (strcmp(mode, "rtu-registers") == 0 && argc > 5) {
+        rc = registers(ctx, atoi(argv[3]), atoi(argv[4]), atoi(argv[5]), argv + 6, argc - 6);
     } else if (strcmp(mode, "tcp-client-stray-zeros") == 0 && argc > 3) {
         rc = stray_zeros(ctx, atoi(argv[3]));
     }

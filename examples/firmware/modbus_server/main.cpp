@@ -5,7 +5,8 @@
 // to RTU at compile time, so no TCP framing is compiled in, and so are the function codes
 // (common/modbus_ten_functions.hpp): FC 8 (diagnostics) would be one more in the set.
 // The application mirrors the coils to outputs and its inputs to the discrete inputs and
-// input registers between requests.
+// input registers between requests. The board's console reports the coils when a master has
+// changed them, with the stack's high-water mark.
 //
 // The byte_stream below is the only board-specific part; ferrule brings the protocol.
 #include <array>
@@ -57,6 +58,7 @@ int main() {
             m.set_discrete_input(i, (inputs >> i) & 1u);
             m.input_registers()[i] = analog[i];
         }
+        if (out != outputs) board::report("coils=", out, " stack=", board::stack_high_water());
         outputs = out;
     }
 }

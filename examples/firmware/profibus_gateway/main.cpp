@@ -7,7 +7,9 @@
 //
 // A super-loop drives both lines and never waits on either: per line it takes what has
 // arrived, asks the gateway what to send, and hands the transmitter one character at a time.
-// While a line sends nothing arrives on it (half duplex), so it is not read meanwhile.
+// While a line sends nothing arrives on it (half duplex), so it is not read meanwhile. The
+// board's console reports each command the drive answered or failed, with the stack's
+// high-water mark.
 #include <array>
 #include <chrono>
 #include <cstddef>
@@ -65,6 +67,16 @@ void queue_output(Uart& uart, const ferrule::session_action& a,
     if (a.discard_input) uart.discard_input();
     out = a.bytes;
 }
+
+// One console line per command the drive answered (or did not).
+void report_commands() {
+    static std::uint32_t seen = 0;
+    const ferrule::gateway::stats& s = gateway.stats();
+    if (s.delivered + s.failed == seen) return;
+    seen = s.delivered + s.failed;
+    board::report("delivered=", s.delivered, " failed=", s.failed, " exceptions=", s.exceptions,
+                  " stack=", board::stack_high_water());
+}
 } // namespace
 
 int main() {
@@ -87,5 +99,6 @@ int main() {
             queue_output(drive_uart, gateway.next_modbus(drive_uart.now()), drive_out);
         }
         drive_out = drive_out.subspan(drive_uart.write_some(drive_out));
+        report_commands();
     }
 }
