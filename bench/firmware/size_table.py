@@ -5,12 +5,13 @@ RAM (data + bss) and the stack's high-water mark after a few seconds in QEMU aga
   bench/firmware/size_table.py <firmware build dir> [--bench <bench/firmware build dir>]
       [--sim ferrule-sim] [--ferrule ferrule] [--seconds 10] [--check]
 
-Sizes come from arm-none-eabi-size. The stack is read from the guest's RAM, not from its
-console: QEMU's monitor saves the RAM, and the mark is how far below _estack start-up's paint
-(board::stack_paint, from _ebss up) has been overwritten, the same count board::stack_high_water()
-makes. Each image runs against the peer its job needs (a ferrule-sim device for a master or
-client, the ferrule CLI polling a server); without --sim / --ferrule the stack column is left out.
---check also requires each image's console to show its peer's answers (see PEERS)."""
+Sizes come from arm-none-eabi-size. The stack is read from the guest's RAM at the end of the
+run: QEMU's monitor saves the RAM, and the mark is how far below _estack start-up's paint
+(board::stack_paint, from _ebss up) has been overwritten, the count board::stack_high_water()
+makes; the last `stack=` the image reported on its console is printed beside it. Each image
+runs against the peer its job needs (a ferrule-sim device for a master or client, the ferrule
+CLI polling a server); without --sim / --ferrule the stack columns are left out. --check also
+requires the console to show the peer's answers where PEERS names a pattern."""
 import argparse
 import os
 import re
@@ -192,16 +193,19 @@ def main():
     rows, failed = [], []
     for name, elf in images(tools.firmware_dir, tools.bench):
         flash, ram = sizes(elf)
-        stack = "—"
+        stack = console = "—"
         if measure:
             mark, lines = run(elf, name, tools, tools.seconds)
             stack = str(mark)
+            reported = [int(m.group(1)) for l in lines for m in [re.search(r"stack=(\d+)", l)] if m]
+            console = str(reported[-1]) if reported else "—"
             expect = PEERS.get(name, (None, None, None))[2]
             if tools.check and expect and not any(re.search(expect, l) for l in lines):
                 failed.append(f"{name}: no console line matching {expect!r}: {lines[-3:]}")
-        rows.append(f"| {name} | {flash} | {ram} | {stack} |")
-    print("| image | flash (text + data) | RAM (data + bss) | stack high-water |")
-    print("|---|---|---|---|")
+        rows.append(f"| {name} | {flash} | {ram} | {stack} | {console} |")
+    print("| image | flash (text + data) | RAM (data + bss) | stack high-water (RAM) |"
+          " last stack= on the console |")
+    print("|---|---|---|---|---|")
     print("\n".join(rows))
     for f in failed:
         print(f"check failed: {f}", file=sys.stderr)
