@@ -212,7 +212,7 @@ struct harness {
         if (!rtu) FERRULE_CHECK(tid == expected_transaction);
         const auto parsed = parse_response(expected, pdu);
         if (pdu[0] & exception_flag) {
-            FERRULE_CHECK(!parsed && parsed.error().category() == device_category());
+            FERRULE_CHECK(!parsed && std::error_code(parsed.error()).category() == device_category());
             FERRULE_CHECK((pdu[0] & 0x7F) == static_cast<std::uint8_t>(expected.function));
         } else {
             FERRULE_CHECK(parsed.has_value());

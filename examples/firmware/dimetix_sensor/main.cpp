@@ -32,13 +32,13 @@ int main() {
     (void)dimetix_sensor.start_connect(sensor_id);
     for (;;) {
         if (driver.step() != ferrule::session_action::kind::done) continue;
-        const std::error_code ec = dimetix_sensor.error();
+        const ferrule::error ec = dimetix_sensor.error();
         const bool was_connect = !connected;
         dimetix_sensor.clear();
         if (!ec) {
             connected = true;
             if (!was_connect) value = dimetix_sensor.reply().values[0];
-        } else if (ec.category() == device_category()) {
+        } else if (ec.domain() == &device_domain) {
             error_code = ec.value(); // the sensor answered: the link is fine
         } else {
             connected = false; // timeouts: back to the start-up, sNc until gN?

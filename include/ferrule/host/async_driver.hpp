@@ -113,7 +113,7 @@ private:
     }
 
     void transport_failed(std::error_code ec) {
-        session_.on_transport_error(ec);
+        session_.on_transport_error(from_error_code(ec));
         needs_reopen_ = true;
     }
 
