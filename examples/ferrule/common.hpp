@@ -19,9 +19,9 @@
 #include <vector>
 
 #include "../common/hex.hpp"
+#include "ferrule/core/serial_format.hpp"
 #include "ferrule/host/serial_port.hpp"
 #include "ferrule/host/serial_stream.hpp"
-#include "ferrule/core/serial_format.hpp"
 
 namespace ferrule::cli {
 

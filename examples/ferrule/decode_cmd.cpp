@@ -179,7 +179,8 @@ bool print_dimetix_line(const decode_options& o, std::size_t start,
         const auto c = dx::parse_request(line);
         if (!c) {
             j["error"] = std::error_code(c.error()).message();
-            out += fmt::format(" request, not understood ({})", std::error_code(c.error()).message());
+            out +=
+                fmt::format(" request, not understood ({})", std::error_code(c.error()).message());
             clean = false;
         } else {
             j["direction"] = "request";

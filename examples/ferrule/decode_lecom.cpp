@@ -55,7 +55,8 @@ bool print_frame(const decode_options& o, std::size_t offset, std::span<const st
             j["bcc"] = "bad";
             text += fmt::format(" BCC bad: 0x{:02X}, the bytes give 0x{:02X}", got, want);
         } else {
-            text += fmt::format(" not a LECOM telegram ({})", std::error_code(parsed.error()).message());
+            text += fmt::format(" not a LECOM telegram ({})",
+                                std::error_code(parsed.error()).message());
         }
         if (o.json)
             fmt::print("{}\n", j.dump());

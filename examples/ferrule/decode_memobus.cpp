@@ -311,7 +311,8 @@ bool print_message(const decode_options& o, std::size_t offset, std::span<const 
         if (!r) {
             ok = false;
             j["error"] = std::error_code(r.error()).message();
-            return finish(fmt::format("{}: a controller answers {}", head, std::error_code(r.error()).message()));
+            return finish(fmt::format("{}: a controller answers {}", head,
+                                      std::error_code(r.error()).message()));
         }
         return finish(fmt::format("{}: {}", head, request_text(*r, j)));
     }

@@ -10,11 +10,11 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "ferrule/dimetix/access.hpp"
+#include "ferrule/dimetix/sim/sensor.hpp"
 #include "ferrule/host/memobus_server.hpp"
 #include "ferrule/host/pty_server.hpp"
 #include "ferrule/host/serve.hpp"
-#include "ferrule/dimetix/access.hpp"
-#include "ferrule/dimetix/sim/sensor.hpp"
 #include "ferrule/lecom/access.hpp"
 #include "ferrule/lecom/poller.hpp"
 #include "ferrule/lecom/sim/station.hpp"
@@ -198,7 +198,8 @@ int lecom_part(const demo_options& d) {
     lc::master short_wait(quick);
     const auto absent = lc::read(line, short_wait, 7, lc::code(50));
     fmt::print("    read from address 7, where no drive is: {} after {} requests\n",
-               absent ? "unexpectedly answered" : std::error_code(absent.error()).message(), short_wait.attempts());
+               absent ? "unexpectedly answered" : std::error_code(absent.error()).message(),
+               short_wait.attempts());
     return exit_ok;
 }
 
@@ -446,7 +447,8 @@ int run_demo(const demo_options& d) {
         po[0], sw.value, sw.fault() ? 1 : 0);
     const auto silent = ml::read_parameter(line, m, 7, ml::parameter_index::p000_speed);
     fmt::print("  read from address 7, where no drive is: {} after {} requests\n",
-               silent ? "unexpectedly answered" : std::error_code(silent.error()).message(), m.attempts());
+               silent ? "unexpectedly answered" : std::error_code(silent.error()).message(),
+               m.attempts());
 
     const auto& s = m.stats();
     fmt::print("  MOVILINK master: {} transactions, {} succeeded, {} failed, {} resends\n",

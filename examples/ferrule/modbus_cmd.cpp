@@ -68,7 +68,8 @@ int print_request(const context& c, const mb::request& r) {
     std::array<std::uint8_t, mb::max_tcp_adu> adu{};
     const auto n = mb::encode_request(r, pdu);
     if (!n) {
-        fmt::print(stderr, "ferrule: cannot encode the request: {}\n", std::error_code(n.error()).message());
+        fmt::print(stderr, "ferrule: cannot encode the request: {}\n",
+                   std::error_code(n.error()).message());
         return exit_usage;
     }
     const std::span<const std::uint8_t> p(pdu.data(), *n);

@@ -34,9 +34,9 @@ struct scripted_session {
 
     std::vector<session_action> script;
     ferrule::error outcome;
-    std::vector<time_point> asked;          // `now` of each next()
-    std::vector<bytes> received;            // each on_receive()
-    std::vector<time_point> received_at;    // its time
+    std::vector<time_point> asked;         // `now` of each next()
+    std::vector<bytes> received;           // each on_receive()
+    std::vector<time_point> received_at;   // its time
     std::vector<ferrule::error> transport; // each on_transport_error()
 
     session_action next(time_point now) {

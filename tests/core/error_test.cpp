@@ -40,8 +40,7 @@ static_assert(error(errc::timeout).value() == 1);
 static_assert(error(0, ferrule::errc_domain) == error()); // 0 is "no error" in every domain
 static_assert(std::string_view(error(errc::bad_checksum).message()) == "checksum mismatch");
 static_assert(std::string_view(error(errc::bad_checksum).name()) == "ferrule");
-static_assert(std::string_view(error(ml::device_errc::read_only).message()) ==
-              "read access only");
+static_assert(std::string_view(error(ml::device_errc::read_only).message()) == "read access only");
 static_assert(error(mb::device_errc::illegal_data_address).domain() == &mb::device_domain);
 
 namespace {
@@ -114,12 +113,10 @@ TEST_CASE("error converts to std::error_code with today's names and texts", "[co
     check_bridge(dx::make_device_error(999), "dimetix",
                  "@E999: error code not documented for the D-Series");
     check_bridge(lc::device_errc::code_does_not_exist, "lecom", "the drive has no such code");
-    check_bridge(mb::device_errc::server_device_busy, "modbus",
-                 "server device busy; retry later");
+    check_bridge(mb::device_errc::server_device_busy, "modbus", "server device busy; retry later");
     check_bridge(pb::device_errc::master_lock, "profibus",
                  "slave: locked to another master (Master_Lock)");
-    check_bridge(mm::device_errc::count_error, "memobus",
-                 "controller: number of data items error");
+    check_bridge(mm::device_errc::count_error, "memobus", "controller: number of data items error");
 
     // One category per domain: std::error_code compares categories by address.
     const std::error_code a = error(errc::busy);

@@ -222,7 +222,8 @@ TEST_CASE("every documented error code has the manual's text", "[dimetix][error]
               std::string::npos);
     for (int code : {231, 232, 254, 263, 264, 330, 331, 360, 361})
         CHECK(std::string(device_domain_t::message(code)).rfind("older generations", 0) == 0);
-    CHECK(std::error_code(make_device_error(999)).message() == "@E999: error code not documented for the D-Series");
+    CHECK(std::error_code(make_device_error(999)).message() ==
+          "@E999: error code not documented for the D-Series");
     CHECK(std::error_code(make_device_error(212)).message().rfind("@E212: ", 0) == 0);
 }
 

@@ -24,7 +24,7 @@ constexpr time_point at(duration d) {
     return time_point{} + d;
 }
 
-const std::error_code ok{};
+const ferrule::error ok{};
 const ferrule::error timeout = errc::timeout;
 const ferrule::error refused = device_errc::illegal_data_value;
 

@@ -5,11 +5,11 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/modbus/access.hpp"
 #include "ferrule/modbus/client.hpp"
 #include "ferrule/modbus/rtu.hpp"
 #include "ferrule/modbus/tcp.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace std::chrono_literals;
 using namespace ferrule::modbus;

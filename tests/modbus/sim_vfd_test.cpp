@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "ferrule/core/bytes.hpp"
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/modbus/access.hpp"
 #include "ferrule/modbus/client.hpp"
 #include "ferrule/modbus/constants.hpp"
@@ -20,6 +19,7 @@
 #include "ferrule/modbus/rtu.hpp"
 #include "ferrule/modbus/sim/bus.hpp"
 #include "ferrule/modbus/sim/vfd.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace ferrule;
 using namespace ferrule::modbus;

@@ -307,7 +307,8 @@ TEST_CASE("a drive error reply is resent 4 times, then latches with the drive's 
     CHECK(f.error_class == 8);
     CHECK(f.code == 0);
     CHECK(f.additional == 0x0010);
-    CHECK(std::error_code(r.error()).message().find("invalid parameter index") != std::string::npos);
+    CHECK(std::error_code(r.error()).message().find("invalid parameter index") !=
+          std::string::npos);
     CHECK(m.attempts() == 5);
     CHECK(m.stats().device_errors == 5);
     CHECK(m.fault_latched());

@@ -2,12 +2,12 @@
 // an asio port behind an adapter). The stream owns its clock.
 #pragma once
 
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/time.hpp"
 #include <concepts>
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include "ferrule/core/error.hpp"
-#include "ferrule/core/time.hpp"
 
 namespace ferrule {
 

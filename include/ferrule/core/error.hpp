@@ -237,7 +237,8 @@ private:
             return f;
         }
         lock_guard() noexcept {
-            while (flag().test_and_set(std::memory_order_acquire)) {}
+            while (flag().test_and_set(std::memory_order_acquire)) {
+            }
         }
         ~lock_guard() { flag().clear(std::memory_order_release); }
     };

@@ -56,7 +56,7 @@ result<std::int32_t> signal_strength(S& stream, sensor& s, std::uint8_t id) {
 // sNf+t: tracking into the one-value buffer, read with read_buffer() (S1 §8.2.5).
 template <session_stream S>
 ferrule::error start_buffered_tracking(S& stream, sensor& s, std::uint8_t id,
-                                        std::int32_t sampling_ms) {
+                                       std::int32_t sampling_ms) {
     return transact(stream, s, tracking_buffered(id, sampling_ms)).error();
 }
 

@@ -1,6 +1,6 @@
 // Dimetix device errors: the answer `gN@Ezzz` kept as a ferrule::error of device_domain whose
-// value is the code zzz, with the manual's meaning as the message (S1 §8.6 p.53-54). Codes the D-Series
-// table does not list but older generations or other sources use are marked as such
+// value is the code zzz, with the manual's meaning as the message (S1 §8.6 p.53-54). Codes the
+// D-Series table does not list but older generations or other sources use are marked as such
 // (dimetix.md §7.2); any other code is kept as it came, "not documented".
 #pragma once
 

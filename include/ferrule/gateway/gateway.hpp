@@ -170,7 +170,7 @@ public:
                 const time_point t =
                     cfg_.mode == mode::mapped && dp_active_ ? list_.wake_at() : never;
                 return t == never || !before(now, t) ? session_action::idle()
-                                              : session_action::wait_until(t);
+                                                     : session_action::wait_until(t);
             }
         }
     }

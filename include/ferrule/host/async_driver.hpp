@@ -34,8 +34,8 @@
 #include <type_traits>
 #include <utility>
 
-#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/core/session.hpp"
+#include "ferrule/host/serial_stream.hpp"
 
 namespace ferrule::host {
 

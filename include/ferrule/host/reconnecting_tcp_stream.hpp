@@ -16,9 +16,9 @@
 #include <span>
 #include <system_error>
 
-#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/core/byte_stream.hpp"
 #include "ferrule/core/error.hpp"
+#include "ferrule/host/serial_stream.hpp"
 
 namespace ferrule::host {
 

@@ -18,8 +18,8 @@
 #include <ctime>
 #include <span>
 
-#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/gateway/gateway.hpp"
+#include "ferrule/host/serial_stream.hpp"
 
 namespace ferrule::host {
 

@@ -64,7 +64,7 @@ struct poll_item {
 
 struct item_state {
     value last{};            // the value of the last good read
-    ferrule::error error{}; // outcome of the last read
+    ferrule::error error{};  // outcome of the last read
     time_point updated{};    // when `last` was read (the reply's end)
     std::uint32_t reads = 0; // reads finished, good or not
     std::uint32_t failures = 0;

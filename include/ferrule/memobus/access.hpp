@@ -55,7 +55,7 @@ inline bool bit_range(const register_ref& first, std::size_t count, std::uint16_
 // SFC 09 (MW) or 0A (IW): out.size() registers, 1…2044, from `first`.
 template <session_stream S>
 ferrule::error read_words(S& stream, master& m, const register_ref& first,
-                           std::span<std::uint16_t> out) {
+                          std::span<std::uint16_t> out) {
     if (is_bit(first.kind) || out.empty() || out.size() > max_read_registers_ext)
         return errc::invalid_argument;
     request r;
@@ -71,7 +71,7 @@ ferrule::error read_words(S& stream, master& m, const register_ref& first,
 // SFC 0B: values.size() registers, 1…2043, from MW `first`.
 template <session_stream S>
 ferrule::error write_words(S& stream, master& m, const register_ref& first,
-                            std::span<const std::uint16_t> values) {
+                           std::span<const std::uint16_t> values) {
     if (first.kind != register_kind::mw || values.empty() ||
         values.size() > max_write_registers_ext)
         return errc::invalid_argument;
@@ -100,7 +100,7 @@ ferrule::error read_bits(S& stream, master& m, const register_ref& first, std::s
 // SFC 0F: values.size() coils, 1…800, from MB `first`.
 template <session_stream S>
 ferrule::error write_bits(S& stream, master& m, const register_ref& first,
-                           std::span<const bool> values) {
+                          std::span<const bool> values) {
     request r;
     if (first.kind != register_kind::mb || values.empty() || values.size() > max_write_bits ||
         !detail::bit_range(first, values.size(), r.address))
@@ -129,7 +129,7 @@ ferrule::error write_bit(S& stream, master& m, const register_ref& bit, bool on)
 // SFC 0D: MW registers at the word numbers `words` (1…2044) into out (as many).
 template <session_stream S>
 ferrule::error read_random(S& stream, master& m, std::span<const std::uint16_t> words,
-                            std::span<std::uint16_t> out) {
+                           std::span<std::uint16_t> out) {
     if (words.empty() || words.size() > max_read_registers_ext || out.size() != words.size())
         return errc::invalid_argument;
     request r;
@@ -145,7 +145,7 @@ ferrule::error read_random(S& stream, master& m, std::span<const std::uint16_t> 
 // stack (4 KiB for 1022).
 template <session_stream S>
 ferrule::error write_random(S& stream, master& m, std::span<const std::uint16_t> words,
-                             std::span<const std::uint16_t> values) {
+                            std::span<const std::uint16_t> values) {
     if (words.empty() || words.size() > max_write_random || values.size() != words.size())
         return errc::invalid_argument;
     std::array<std::uint16_t, 2 * std::size_t{max_write_random}> pairs{};
@@ -186,7 +186,7 @@ ferrule::error read(S& stream, master& m, std::string_view name, std::span<bool>
 }
 template <session_stream S>
 ferrule::error write(S& stream, master& m, std::string_view name,
-                      std::span<const std::uint16_t> values) {
+                     std::span<const std::uint16_t> values) {
     const auto first = parse_register(name);
     if (!first) return first.error();
     return write_words(stream, m, *first, values);

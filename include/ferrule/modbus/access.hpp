@@ -23,7 +23,7 @@ namespace ferrule::modbus {
 namespace detail {
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error transact(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                         const request& r) {
+                        const request& r) {
     if (auto ec = c.start(unit, r)) return ec;
     const ferrule::error ec = run(stream, c);
     if (ec == errc::no_response_expected) return {};
@@ -32,7 +32,7 @@ ferrule::error transact(S& stream, basic_client<L, F, Latch>& c, std::uint8_t un
 
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error read_bits(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit, function fc,
-                          std::uint16_t address, std::span<bool> out) {
+                         std::uint16_t address, std::span<bool> out) {
     if (out.size() > max_read_bits) return errc::invalid_argument;
     request r;
     r.function = fc;
@@ -46,7 +46,7 @@ ferrule::error read_bits(S& stream, basic_client<L, F, Latch>& c, std::uint8_t u
 
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error read_regs(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit, function fc,
-                          std::uint16_t address, std::span<std::uint16_t> out) {
+                         std::uint16_t address, std::span<std::uint16_t> out) {
     if (out.size() > max_read_registers) return errc::invalid_argument;
     request r;
     r.function = fc;
@@ -61,35 +61,35 @@ ferrule::error read_regs(S& stream, basic_client<L, F, Latch>& c, std::uint8_t u
 // FC 1 (AP §6.1): out.size() coils from `address`.
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error read_coils(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                           std::uint16_t address, std::span<bool> out) {
+                          std::uint16_t address, std::span<bool> out) {
     return detail::read_bits(stream, c, unit, function::read_coils, address, out);
 }
 
 // FC 2 (AP §6.2).
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error read_discrete_inputs(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                                     std::uint16_t address, std::span<bool> out) {
+                                    std::uint16_t address, std::span<bool> out) {
     return detail::read_bits(stream, c, unit, function::read_discrete_inputs, address, out);
 }
 
 // FC 3 (AP §6.3): out.size() registers from `address`.
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error read_holding_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                                       std::uint16_t address, std::span<std::uint16_t> out) {
+                                      std::uint16_t address, std::span<std::uint16_t> out) {
     return detail::read_regs(stream, c, unit, function::read_holding_registers, address, out);
 }
 
 // FC 4 (AP §6.4).
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error read_input_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                                     std::uint16_t address, std::span<std::uint16_t> out) {
+                                    std::uint16_t address, std::span<std::uint16_t> out) {
     return detail::read_regs(stream, c, unit, function::read_input_registers, address, out);
 }
 
 // FC 5 (AP §6.5).
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error write_coil(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                           std::uint16_t address, bool on) {
+                          std::uint16_t address, bool on) {
     request r;
     r.function = function::write_single_coil;
     r.address = address;
@@ -100,7 +100,7 @@ ferrule::error write_coil(S& stream, basic_client<L, F, Latch>& c, std::uint8_t 
 // FC 6 (AP §6.6).
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error write_register(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                               std::uint16_t address, std::uint16_t value) {
+                              std::uint16_t address, std::uint16_t value) {
     request r;
     r.function = function::write_single_register;
     r.address = address;
@@ -111,7 +111,7 @@ ferrule::error write_register(S& stream, basic_client<L, F, Latch>& c, std::uint
 // FC 15 (AP §6.11): values.size() coils from `address`.
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error write_coils(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                            std::uint16_t address, std::span<const bool> values) {
+                           std::uint16_t address, std::span<const bool> values) {
     if (values.size() > max_write_bits) return errc::invalid_argument;
     std::array<std::uint8_t, packed_size(max_write_bits)> packed{};
     for (std::size_t i = 0; i < values.size(); ++i)
@@ -127,7 +127,7 @@ ferrule::error write_coils(S& stream, basic_client<L, F, Latch>& c, std::uint8_t
 // FC 16 (AP §6.12): values.size() registers from `address`.
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error write_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                                std::uint16_t address, std::span<const std::uint16_t> values) {
+                               std::uint16_t address, std::span<const std::uint16_t> values) {
     if (values.size() > max_write_registers) return errc::invalid_argument;
     std::array<std::uint8_t, 2 * max_write_registers> bytes{};
     for (std::size_t i = 0; i < values.size(); ++i) put_register(bytes, i, values[i]);
@@ -143,9 +143,9 @@ ferrule::error write_registers(S& stream, basic_client<L, F, Latch>& c, std::uin
 // registers from `read_address` (the server writes first).
 template <session_stream S, link_mode L, function_set F, class Latch>
 ferrule::error read_write_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                                     std::uint16_t read_address, std::span<std::uint16_t> read_out,
-                                     std::uint16_t write_address,
-                                     std::span<const std::uint16_t> values) {
+                                    std::uint16_t read_address, std::span<std::uint16_t> read_out,
+                                    std::uint16_t write_address,
+                                    std::span<const std::uint16_t> values) {
     if (read_out.size() > max_read_registers || values.size() > max_rw_write_registers)
         return errc::invalid_argument;
     std::array<std::uint8_t, 2 * max_rw_write_registers> bytes{};

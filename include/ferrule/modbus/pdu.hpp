@@ -490,7 +490,7 @@ constexpr errc check_response(std::span<const std::uint8_t> q, std::span<const s
 // This form fills `r` and returns the error (empty on success; `r` is then not to be used).
 template <function_set Fs = all_functions>
 ferrule::error parse_response(const request& sent, std::span<const std::uint8_t> pdu,
-                               response& r) noexcept {
+                              response& r) noexcept {
     std::array<std::uint8_t, max_pdu> q;
     const auto n = encode_request<Fs>(sent, q);
     if (!n) return errc::invalid_argument;

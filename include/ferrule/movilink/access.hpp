@@ -56,8 +56,8 @@ result<std::uint32_t> read_parameter(S& stream, master& m, std::uint8_t address,
 // writes, so the default is the volatile (RAM) write.
 template <session_stream S>
 ferrule::error write_parameter(S& stream, master& m, std::uint8_t address, std::uint16_t index,
-                                std::uint32_t value, bool persistent = false,
-                                std::uint8_t subindex = 0) {
+                               std::uint32_t value, bool persistent = false,
+                               std::uint8_t subindex = 0) {
     const auto r =
         parameter(stream, m, address, persistent ? service::write : service::write_volatile, index,
                   value, subindex);

@@ -123,7 +123,8 @@ struct device_domain_t {
     // The meaning of the additional code, or of a special return code of class 5 / 6.
     static constexpr const char* message(int ev) noexcept {
         const device_error_fields f = fields_of(ev);
-        const char* special = f.additional == 0 ? special_code_text(f.error_class, f.code) : nullptr;
+        const char* special =
+            f.additional == 0 ? special_code_text(f.error_class, f.code) : nullptr;
         return special ? special : additional_code_text(f.additional);
     }
     // "drive error class C (class text), code N, additional code 0xAAAA: meaning".

@@ -60,7 +60,7 @@ public:
     // Process data only: PO words out, PI words back. `po` holds pd_words(type) words.
     // A PARAM+nPD type is allowed; its parameter channel then carries "no service".
     ferrule::error start_exchange(std::uint8_t address, pdu_type type,
-                                   std::span<const std::uint16_t> po) noexcept {
+                                  std::span<const std::uint16_t> po) noexcept {
         if (!has_param(type) && po.size() != pd_words(type)) return errc::invalid_argument;
         param_channel idle_channel{};
         idle_channel.set_handshake(handshake_of(address));
@@ -70,7 +70,7 @@ public:
     // A parameter service (read, write, read min/max/default/scale/attribute). `type`
     // must carry a parameter channel; its PO words (if any) come from `po`.
     ferrule::error start_parameter(std::uint8_t address, pdu_type type, param_channel request,
-                                    std::span<const std::uint16_t> po = {}) noexcept {
+                                   std::span<const std::uint16_t> po = {}) noexcept {
         if (!has_param(type)) return errc::invalid_argument;
         return start(address, type, request, po, true);
     }
@@ -166,7 +166,7 @@ private:
     enum class state : std::uint8_t { idle, pending_send, awaiting_reply, done };
 
     ferrule::error start(std::uint8_t address, pdu_type type, param_channel param,
-                          std::span<const std::uint16_t> po, bool param_job) noexcept {
+                         std::span<const std::uint16_t> po, bool param_job) noexcept {
         if (busy()) return errc::busy;
         if (latch_.fault_latched()) return errc::fault_latched;
         const auto kind = kind_of(address);

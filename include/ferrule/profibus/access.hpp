@@ -64,8 +64,8 @@ ferrule::error get_cfg(S& stream, master& m, std::uint8_t da) {
 // bytes (else errc::malformed). m.data_high() tells whether the slave answered DH.
 template <session_stream S>
 ferrule::error data_exchange(S& stream, master& m, std::uint8_t da,
-                              std::span<const std::uint8_t> outputs,
-                              std::span<std::uint8_t> inputs_out) {
+                             std::span<const std::uint8_t> outputs,
+                             std::span<std::uint8_t> inputs_out) {
     if (auto ec = detail::transact(stream, m, m.start_data_exchange(da, outputs))) return ec;
     const auto in = m.reply();
     if (in.size() != inputs_out.size()) return errc::malformed;
@@ -77,7 +77,7 @@ ferrule::error data_exchange(S& stream, master& m, std::uint8_t da,
 // line has been idle for TSYN.
 template <session_stream S>
 ferrule::error send_global_control(S& stream, master& m, const global_control& gc,
-                                    std::uint8_t da = broadcast_address) {
+                                   std::uint8_t da = broadcast_address) {
     const ferrule::error ec = detail::transact(stream, m, m.start_global_control(gc, da));
     if (ec == errc::no_response_expected) return {};
     return ec;
@@ -101,7 +101,7 @@ inline ferrule::error start_up_verdict(const slave_diag& d, std::uint8_t master)
 // of the last diagnosis (start_up_verdict).
 template <session_stream S>
 ferrule::error bring_up(S& stream, master& m, std::uint8_t da, const prm_data& p,
-                         std::span<const std::uint8_t> cfg, unsigned diag_polls = 10) {
+                        std::span<const std::uint8_t> cfg, unsigned diag_polls = 10) {
     m.reset_fcb(da);
     slave_diag d;
     if (auto ec = fdl_status(stream, m, da)) return ec;

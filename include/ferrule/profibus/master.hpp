@@ -131,12 +131,12 @@ public:
         return begin(service::read_outputs, da, {});
     }
     ferrule::error start_data_exchange(std::uint8_t da,
-                                        std::span<const std::uint8_t> outputs) noexcept {
+                                       std::span<const std::uint8_t> outputs) noexcept {
         return begin(service::data_exchange, da, outputs);
     }
     // DA 127 reaches every slave; the group bits of `gc` select among them (§B.5).
     ferrule::error start_global_control(const global_control& gc,
-                                         std::uint8_t da = broadcast_address) noexcept {
+                                        std::uint8_t da = broadcast_address) noexcept {
         const std::array<std::uint8_t, 2> du{gc.command, gc.group};
         return begin(service::global_control, da, du);
     }
@@ -255,7 +255,7 @@ private:
     }
 
     ferrule::error begin(profibus::service s, std::uint8_t da,
-                          std::span<const std::uint8_t> du) noexcept {
+                         std::span<const std::uint8_t> du) noexcept {
         if (busy()) return errc::busy;
         if (latch_.fault_latched()) return errc::fault_latched;
         const bool sdn = s == service::global_control;
