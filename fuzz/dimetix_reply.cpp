@@ -411,7 +411,7 @@ struct harness {
         case 10: receive_answer(); break;
         case 11:
             if (in.ConsumeIntegral<std::uint8_t>() < 16 && s.busy()) {
-                s.on_transport_error(make_error_code(errc::transport));
+                s.on_transport_error(ferrule::error(errc::transport));
                 transport_failed = true;
                 have_wait = false;
                 FERRULE_CHECK(!s.busy() && s.error() == errc::transport);

@@ -472,7 +472,7 @@ struct harness {
             if (in.ConsumeIntegral<std::uint8_t>() < 16) {
                 const bool was_busy = m.busy();
                 const std::uint32_t open = reply_sends - aborted - outcomes(m.stats());
-                m.on_transport_error(make_error_code(errc::transport));
+                m.on_transport_error(ferrule::error(errc::transport));
                 have_wait = false;
                 awaiting = false;
                 if (was_busy) {

@@ -60,7 +60,7 @@ void check_reencode(std::span<const std::uint8_t> m, data_order order) {
     const auto body = m.subspan(header_size);
     const auto req = parse_request(body, order);
     if (!req) {
-        FERRULE_CHECK(req.error().category() == device_category());
+        FERRULE_CHECK(std::error_code(req.error()).category() == device_category());
         const int code = req.error().value();
         FERRULE_CHECK(code >= 1 && code <= 3);
         return;

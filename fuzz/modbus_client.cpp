@@ -370,7 +370,7 @@ struct harness {
             break;
         case 8:
             if (in.ConsumeIntegral<std::uint8_t>() >= 200) {
-                c.on_transport_error(make_error_code(errc::timeout));
+                c.on_transport_error(ferrule::error(errc::timeout));
                 have_wait = false;
                 if (active) call_next();
             } else {

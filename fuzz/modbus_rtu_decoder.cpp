@@ -83,7 +83,7 @@ void check_response(std::span<const std::uint8_t> pdu, std::span<const std::uint
     r.data = std::span<const std::uint8_t>(s).first(s[7] % 3);
     const auto p = parse_response(r, pdu);
     if (!p) {
-        const auto& cat = p.error().category();
+        const auto& cat = std::error_code(p.error()).category();
         FERRULE_CHECK(cat == errc_category() || cat == device_category());
         return;
     }

@@ -15,8 +15,9 @@
 //     protocol id 0, the length right); its PDU is a normal response of the length its
 //     function code predicts, or an exception (FC | 0x80, code 1-4, 6, 7)
 //   * a request built here and delivered whole after a silence (RTU) or on a clean stream
-//     (TCP: no random bytes and no held bytes dropped yet) is answered by the next reply: same unit (TCP: transaction id too), and
-//     parse_response() accepts it as the answer to that request or gives the exception
+//     (TCP: no random bytes and no held bytes dropped yet) is answered by the next reply: same unit
+//     (TCP: transaction id too), and parse_response() accepts it as the answer to that request or
+//     gives the exception
 //   * broadcasts and requests for other units are never answered
 //   * with no input the session becomes idle within a bounded amount of virtual time
 #include <fuzzer/FuzzedDataProvider.h>
@@ -212,7 +213,8 @@ struct harness {
         if (!rtu) FERRULE_CHECK(tid == expected_transaction);
         const auto parsed = parse_response(expected, pdu);
         if (pdu[0] & exception_flag) {
-            FERRULE_CHECK(!parsed && parsed.error().category() == device_category());
+            FERRULE_CHECK(!parsed &&
+                          std::error_code(parsed.error()).category() == device_category());
             FERRULE_CHECK((pdu[0] & 0x7F) == static_cast<std::uint8_t>(expected.function));
         } else {
             FERRULE_CHECK(parsed.has_value());

@@ -413,7 +413,7 @@ struct harness {
         case 14:
             if (in.ConsumeIntegral<std::uint8_t>() < 16) {
                 const bool was_busy = m.busy();
-                m.on_transport_error(make_error_code(errc::transport));
+                m.on_transport_error(ferrule::error(errc::transport));
                 invalidate();
                 if (was_busy) {
                     transport_failed = true;

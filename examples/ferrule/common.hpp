@@ -19,9 +19,9 @@
 #include <vector>
 
 #include "../common/hex.hpp"
+#include "ferrule/core/serial_format.hpp"
 #include "ferrule/host/serial_port.hpp"
 #include "ferrule/host/serial_stream.hpp"
-#include "ferrule/core/serial_format.hpp"
 
 namespace ferrule::cli {
 
@@ -137,7 +137,7 @@ template <class Context, class Options>
 int run_on_port(const Options& o, const serial_format& manual_default, int (*fn)(Context&)) {
     const auto f = resolve_format(o.common, manual_default);
     if (!f) {
-        fmt::print(stderr, "ferrule: --format/--baud: {}\n", f.error().message());
+        fmt::print(stderr, "ferrule: --format/--baud: {}\n", std::error_code(f.error()).message());
         return exit_usage;
     }
     Context c(o, *f);

@@ -82,7 +82,7 @@ void print_movilink_frame(const decode_options& o, std::size_t offset,
                             ml::name(p.svc()), p.index, p.index, p.subindex, p.data,
                             p.handshake() ? 1 : 0, p.data_length());
         if (p.is_error() && !request) {
-            const auto ec = ml::make_device_error(p);
+            const std::error_code ec = ml::make_device_error(p);
             pj["error_text"] = ec.message();
             text += fmt::format("\n       ERROR: {}", ec.message());
         }
@@ -143,7 +143,7 @@ public:
                 junk_reason_ = "incomplete telegram";
                 pos_ = stop;
             } else {
-                if (junk_from_ == pos_) junk_reason_ = s.ec.message();
+                if (junk_from_ == pos_) junk_reason_ = std::error_code(s.ec).message();
                 ++pos_;
             }
         }
@@ -178,8 +178,9 @@ bool print_dimetix_line(const decode_options& o, std::size_t start,
     if (!line.empty() && line[0] == 's') {
         const auto c = dx::parse_request(line);
         if (!c) {
-            j["error"] = c.error().message();
-            out += fmt::format(" request, not understood ({})", c.error().message());
+            j["error"] = std::error_code(c.error()).message();
+            out +=
+                fmt::format(" request, not understood ({})", std::error_code(c.error()).message());
             clean = false;
         } else {
             j["direction"] = "request";
@@ -195,8 +196,8 @@ bool print_dimetix_line(const decode_options& o, std::size_t start,
     } else {
         const auto r = dx::parse_reply(line);
         if (!r) {
-            j["error"] = r.error().message();
-            out += fmt::format(" not an answer ({})", r.error().message());
+            j["error"] = std::error_code(r.error()).message();
+            out += fmt::format(" not an answer ({})", std::error_code(r.error()).message());
             clean = false;
         } else {
             j["direction"] = "answer";
@@ -217,7 +218,7 @@ bool print_dimetix_line(const decode_options& o, std::size_t start,
                     out += fmt::format(" (distance {:.1f} mm)", r->values[0] / 10.0);
                 break;
             case dx::reply_kind::error: {
-                const auto ec = dx::make_device_error(r->error_code);
+                const std::error_code ec = dx::make_device_error(r->error_code);
                 j["error_code"] = r->error_code;
                 j["error"] = ec.message();
                 out += fmt::format(" ERROR of sensor {}: {}", r->id, ec.message());

@@ -49,13 +49,14 @@ bool print_frame(const decode_options& o, std::size_t offset, std::span<const st
     std::string text = fmt::format("@{:<4} {:<36}", offset, hex(f));
     const auto parsed = lc::parse_frame(f);
     if (!parsed) {
-        j["error"] = parsed.error().message();
+        j["error"] = std::error_code(parsed.error()).message();
         if (parsed.error() == errc::bad_checksum) {
             const auto [got, want] = bcc_of(f);
             j["bcc"] = "bad";
             text += fmt::format(" BCC bad: 0x{:02X}, the bytes give 0x{:02X}", got, want);
         } else {
-            text += fmt::format(" not a LECOM telegram ({})", parsed.error().message());
+            text += fmt::format(" not a LECOM telegram ({})",
+                                std::error_code(parsed.error()).message());
         }
         if (o.json)
             fmt::print("{}\n", j.dump());
@@ -97,14 +98,14 @@ bool print_frame(const decode_options& o, std::size_t offset, std::span<const st
     std::string meaning;
     switch (t.kind) {
     case lc::frame_kind::fault:
-        meaning = make_error_code(lc::device_errc::checksum_fault).message();
+        meaning = ferrule::error(lc::device_errc::checksum_fault).message();
         break;
     case lc::frame_kind::no_code:
-        meaning = make_error_code(lc::device_errc::code_does_not_exist).message();
+        meaning = ferrule::error(lc::device_errc::code_does_not_exist).message();
         break;
     case lc::frame_kind::ack: meaning = "the drive accepted the write"; break;
     case lc::frame_kind::nak:
-        meaning = make_error_code(lc::device_errc::write_refused).message();
+        meaning = ferrule::error(lc::device_errc::write_refused).message();
         break;
     case lc::frame_kind::eot:
         meaning = "4900 reply to RECEIVE: the code does not exist (or the start of a request)";

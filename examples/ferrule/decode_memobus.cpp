@@ -310,8 +310,9 @@ bool print_message(const decode_options& o, std::size_t offset, std::span<const 
         asked = {{body.begin(), body.end()}, h.serial};
         if (!r) {
             ok = false;
-            j["error"] = r.error().message();
-            return finish(fmt::format("{}: a controller answers {}", head, r.error().message()));
+            j["error"] = std::error_code(r.error()).message();
+            return finish(fmt::format("{}: a controller answers {}", head,
+                                      std::error_code(r.error()).message()));
         }
         return finish(fmt::format("{}: {}", head, request_text(*r, j)));
     }
@@ -334,9 +335,9 @@ bool print_message(const decode_options& o, std::size_t offset, std::span<const 
         const auto checked = mb::parse_response(*sent, body);
         if (!checked) {
             ok = false;
-            j["error"] = checked.error().message();
+            j["error"] = std::error_code(checked.error()).message();
             return finish(fmt::format("{}: does not answer the command before it ({})", head,
-                                      checked.error().message()));
+                                      std::error_code(checked.error()).message()));
         }
     }
     const auto fields = response_text(fn, body.subspan(5), sent ? &*sent : nullptr, j);

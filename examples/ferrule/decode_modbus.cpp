@@ -154,9 +154,9 @@ bool describe_response(std::span<const std::uint8_t> pdu, const pending* asked, 
     if (sent) {
         const auto parsed = mb::parse_response(*sent, pdu);
         if (!parsed) {
-            j["error"] = parsed.error().message();
+            j["error"] = std::error_code(parsed.error()).message();
             text += fmt::format(": does not answer the request before it ({})",
-                                parsed.error().message());
+                                std::error_code(parsed.error()).message());
             return false;
         }
     }

@@ -269,7 +269,7 @@ void print_bad_fcs(const decode_options& o, std::size_t offset, std::span<const 
            {"bytes", hex(f)},
            {"frame", kind},
            {"fcs", "bad"},
-           {"error", make_error_code(errc::bad_checksum).message()}},
+           {"error", ferrule::error(errc::bad_checksum).message()}},
           fmt::format("@{:<4} {:<26} {} FCS bad: 0x{:02X}, the bytes give 0x{:02X}", offset, hex(f),
                       kind, got, want));
 }

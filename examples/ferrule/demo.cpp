@@ -10,11 +10,11 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "ferrule/dimetix/access.hpp"
+#include "ferrule/dimetix/sim/sensor.hpp"
 #include "ferrule/host/memobus_server.hpp"
 #include "ferrule/host/pty_server.hpp"
 #include "ferrule/host/serve.hpp"
-#include "ferrule/dimetix/access.hpp"
-#include "ferrule/dimetix/sim/sensor.hpp"
 #include "ferrule/lecom/access.hpp"
 #include "ferrule/lecom/poller.hpp"
 #include "ferrule/lecom/sim/station.hpp"
@@ -112,7 +112,7 @@ int sensor_part(const demo_options& d) {
     server.resume();
     const auto lost = dx::measure(stream, s, 0);
     fmt::print("  with the target gone: {}\n",
-               lost ? "unexpectedly measured" : lost.error().message());
+               lost ? "unexpectedly measured" : std::error_code(lost.error()).message());
     const auto again = dx::measure(stream, s, 0);
     if (!again) return fail("measure", again.error());
     fmt::print("  and back: {:.1f} mm\n", again->distance / 10.0);
@@ -184,7 +184,7 @@ int lecom_part(const demo_options& d) {
     fmt::print("  faults:\n");
     const auto missing = lc::read(line, m, 1, lc::code(999));
     fmt::print("    read C0999 on drive 1: {}\n",
-               missing ? "unexpectedly answered" : missing.error().message());
+               missing ? "unexpectedly answered" : std::error_code(missing.error()).message());
     const auto refused = lc::write(line, m, 1, lc::code(50), *lc::decimal(100));
     fmt::print("    write read-only C0050 on drive 1: {}\n", refused ? refused.message() : "ACK");
     server.pause();
@@ -198,7 +198,8 @@ int lecom_part(const demo_options& d) {
     lc::master short_wait(quick);
     const auto absent = lc::read(line, short_wait, 7, lc::code(50));
     fmt::print("    read from address 7, where no drive is: {} after {} requests\n",
-               absent ? "unexpectedly answered" : absent.error().message(), short_wait.attempts());
+               absent ? "unexpectedly answered" : std::error_code(absent.error()).message(),
+               short_wait.attempts());
     return exit_ok;
 }
 
@@ -251,7 +252,7 @@ int modbus_part(const demo_options& d) {
             fmt::print("  t={:4.2f} s  status 0x{:04X}  output frequency {:5.2f} Hz\n", t, live[0],
                        live[1] / 100.0);
             if (live[1] == until_hz) return {};
-            if (t > 5) return make_error_code(errc::timeout);
+            if (t > 5) return ferrule::error(errc::timeout);
         }
     };
     if (auto ec = show_ramp(2500)) return fail("ramp", ec);
@@ -321,7 +322,7 @@ int memobus_part(const demo_options& d) {
         for (int round = 0; round < 20 && !p.ec; ++round) {
             p.ec = mm::write_words(p.line, p.master, mm::mw(p.first), p.written);
             if (!p.ec) p.ec = mm::read_words(p.line, p.master, mm::mw(p.first), p.read);
-            if (!p.ec && p.read != p.written) p.ec = make_error_code(errc::malformed);
+            if (!p.ec && p.read != p.written) p.ec = ferrule::error(errc::malformed);
         }
     };
     std::thread second([&] { work(pcs[1]); });
@@ -415,7 +416,7 @@ int run_demo(const demo_options& d) {
                 last = now;
             }
             if (reached) return {};
-            if (now - start > 10s) return make_error_code(errc::timeout);
+            if (now - start > 10s) return ferrule::error(errc::timeout);
         }
     };
     if (auto ec = show_until(po[1])) return fail("run", ec);
@@ -427,7 +428,7 @@ int run_demo(const demo_options& d) {
     fmt::print("\n4. Faults and how ferrule reports them\n");
     const auto bad = ml::read_parameter(line, m, 1, 0x1234);
     fmt::print("  read index 0x1234 on drive 1: {}\n",
-               bad ? "unexpectedly answered" : bad.error().message());
+               bad ? "unexpectedly answered" : std::error_code(bad.error()).message());
     m.reset_fault();
     server.pause();
     drive1.drive.inject_fault(43); // as if the drive's own RS-485 timeout (F43) had tripped
@@ -446,7 +447,8 @@ int run_demo(const demo_options& d) {
         po[0], sw.value, sw.fault() ? 1 : 0);
     const auto silent = ml::read_parameter(line, m, 7, ml::parameter_index::p000_speed);
     fmt::print("  read from address 7, where no drive is: {} after {} requests\n",
-               silent ? "unexpectedly answered" : silent.error().message(), m.attempts());
+               silent ? "unexpectedly answered" : std::error_code(silent.error()).message(),
+               m.attempts());
 
     const auto& s = m.stats();
     fmt::print("  MOVILINK master: {} transactions, {} succeeded, {} failed, {} resends\n",

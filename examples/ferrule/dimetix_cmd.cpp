@@ -56,7 +56,8 @@ int print_request(const dx::command& c) {
     std::array<std::uint8_t, dx::max_request_length> buf{};
     const auto n = dx::encode(c, buf);
     if (!n) {
-        fmt::print(stderr, "ferrule: cannot encode the command: {}\n", n.error().message());
+        fmt::print(stderr, "ferrule: cannot encode the command: {}\n",
+                   std::error_code(n.error()).message());
         return exit_usage;
     }
     const std::span<const std::uint8_t> bytes(buf.data(), *n);
@@ -217,7 +218,8 @@ int cmd_errors_read(context& c) {
     nlohmann::json list = nlohmann::json::array();
     std::string text = fmt::format("sensor {} error stack (newest first):", c.id());
     for (auto code : r->value_span()) {
-        const std::string meaning = code == 0 ? "no error" : dx::make_device_error(code).message();
+        const std::string meaning =
+            code == 0 ? "no error" : std::error_code(dx::make_device_error(code)).message();
         list.push_back({{"code", code}, {"meaning", meaning}});
         text += fmt::format("\n  {:03}  {}", code, meaning);
     }

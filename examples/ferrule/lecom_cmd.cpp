@@ -66,7 +66,8 @@ int print_request(const lc::frame& f) {
     std::array<std::uint8_t, lc::max_frame_length> buf{};
     const auto n = lc::encode(f, buf);
     if (!n) {
-        fmt::print(stderr, "ferrule: cannot encode the request: {}\n", n.error().message());
+        fmt::print(stderr, "ferrule: cannot encode the request: {}\n",
+                   std::error_code(n.error()).message());
         return exit_usage;
     }
     fmt::print("{}\n", hex({buf.data(), *n}));

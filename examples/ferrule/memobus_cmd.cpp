@@ -14,8 +14,8 @@
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "ferrule/host/udp_stream.hpp"
 #include "ferrule/core/driver.hpp"
+#include "ferrule/host/udp_stream.hpp"
 #include "ferrule/memobus/error.hpp"
 #include "ferrule/memobus/master.hpp"
 #include "ferrule/memobus/message.hpp"
@@ -152,7 +152,9 @@ struct context {
             std::array<std::uint8_t, mb::max_message> out{};
             r.cpu = static_cast<std::uint8_t>(o.cpu);
             const auto n = mb::encode_command(r, 0, out, order_of(o));
-            if (!n) return usage(fmt::format("cannot encode the request: {}", n.error().message()));
+            if (!n)
+                return usage(fmt::format("cannot encode the request: {}",
+                                         std::error_code(n.error()).message()));
             fmt::print("{}\n", hex({out.data(), *n}));
             return exit_ok;
         }
@@ -166,7 +168,7 @@ struct context {
             std::string failed =
                 closed ? what + "; the controller closed the connection (all channels in use?)"
                        : what;
-            if (o.udp && ec == make_error_code(errc::timeout))
+            if (o.udp && ec == ferrule::error(errc::timeout))
                 failed = what + " over UDP; the controller may be unreachable or have no free "
                                 "channel (all in use by other masters)";
             return report_error(o.common, failed, ec, ec.category() == mb::device_category());

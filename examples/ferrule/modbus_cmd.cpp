@@ -68,7 +68,8 @@ int print_request(const context& c, const mb::request& r) {
     std::array<std::uint8_t, mb::max_tcp_adu> adu{};
     const auto n = mb::encode_request(r, pdu);
     if (!n) {
-        fmt::print(stderr, "ferrule: cannot encode the request: {}\n", n.error().message());
+        fmt::print(stderr, "ferrule: cannot encode the request: {}\n",
+                   std::error_code(n.error()).message());
         return exit_usage;
     }
     const std::span<const std::uint8_t> p(pdu.data(), *n);
@@ -377,7 +378,7 @@ int cmd_id(context& c) {
 
 int run_modbus(const modbus_options& o, int (*fn)(context&)) {
     const auto f = resolve_format(o.common, mb::default_format);
-    if (!f) return usage(fmt::format("--format/--baud: {}", f.error().message()));
+    if (!f) return usage(fmt::format("--format/--baud: {}", std::error_code(f.error()).message()));
     if (o.host.empty() && o.common.address > mb::max_unit_address)
         return refuse("--unit", std::to_string(o.common.address), "0-247",
                       "RTU units are 1-247, 0 broadcasts a write, Serial Line V1.02 §2.2");

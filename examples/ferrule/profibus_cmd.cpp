@@ -341,7 +341,7 @@ int cmd_clear(context& c) {
 
 int run_profibus(const profibus_options& o, int (*fn)(context&)) {
     const auto f = resolve_format(o.common, pb::format(19'200));
-    if (!f) return usage(fmt::format("--format/--baud: {}", f.error().message()));
+    if (!f) return usage(fmt::format("--format/--baud: {}", std::error_code(f.error()).message()));
     if (o.master_address == o.common.address)
         return usage(fmt::format("--master-address and --address: {} for both; the master and "
                                  "its slave need two of the station addresses 0-126",

@@ -24,20 +24,20 @@ using bytes = std::vector<std::uint8_t>;
 namespace {
 
 const ferrule::serial_format f8e1{9600, 8, ferrule::parity::even, 1};
-const std::error_code io_error = std::make_error_code(std::errc::io_error);
+const ferrule::error io_error = ferrule::from_error_code(std::make_error_code(std::errc::io_error));
 
 // A master session that answers next() from a script: action i for the i-th call, the last
 // one for every call after it.
 struct scripted_session {
-    explicit scripted_session(std::vector<session_action> actions, std::error_code result = {})
+    explicit scripted_session(std::vector<session_action> actions, ferrule::error result = {})
         : script(std::move(actions)), outcome(result) {}
 
     std::vector<session_action> script;
-    std::error_code outcome;
-    std::vector<time_point> asked;          // `now` of each next()
-    std::vector<bytes> received;            // each on_receive()
-    std::vector<time_point> received_at;    // its time
-    std::vector<std::error_code> transport; // each on_transport_error()
+    ferrule::error outcome;
+    std::vector<time_point> asked;         // `now` of each next()
+    std::vector<bytes> received;           // each on_receive()
+    std::vector<time_point> received_at;   // its time
+    std::vector<ferrule::error> transport; // each on_transport_error()
 
     session_action next(time_point now) {
         asked.push_back(now);
@@ -47,8 +47,8 @@ struct scripted_session {
         received.emplace_back(in.begin(), in.end());
         received_at.push_back(now);
     }
-    void on_transport_error(std::error_code ec) { transport.push_back(ec); }
-    std::error_code error() const { return outcome; }
+    void on_transport_error(ferrule::error ec) { transport.push_back(ec); }
+    ferrule::error error() const { return outcome; }
 };
 static_assert(ferrule::master_session<scripted_session>);
 

@@ -28,7 +28,8 @@
 namespace ferrule::test {
 
 // Not an error of ferrule's: what a test sees in the outcome came from the stream.
-inline const std::error_code injected = std::make_error_code(std::errc::io_error);
+inline const ferrule::error injected =
+    ferrule::from_error_code(std::make_error_code(std::errc::io_error));
 
 // A master after one transaction that failed with `expected`: free again, its outcome kept,
 // counted once as failed and never as a success.

@@ -32,7 +32,7 @@ concept master_features = ferrule::master_session<M> && requires(M& m, const M& 
     { c.config().retries } -> std::convertible_to<unsigned>;
     // the finished transaction
     { c.busy() } -> std::same_as<bool>;
-    { c.error() } -> std::same_as<std::error_code>;
+    { c.error() } -> std::same_as<ferrule::error>;
     { c.succeeded() } -> std::same_as<bool>;
     { c.attempts() } -> std::same_as<unsigned>;
     {m.clear()};

@@ -75,7 +75,8 @@ TEST_CASE("mock_serial discard_input drops only bytes that have arrived", "[core
 
 TEST_CASE("mock_serial fails the n-th I/O operation once, writes and reads alike",
           "[core][mock_serial]") {
-    const std::error_code injected = std::make_error_code(std::errc::io_error);
+    const ferrule::error injected =
+        ferrule::from_error_code(std::make_error_code(std::errc::io_error));
     mock_serial line(f8e1);
     const std::array<std::uint8_t, 1> out{1};
     std::array<std::uint8_t, 4> in{};

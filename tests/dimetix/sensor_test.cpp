@@ -159,8 +159,8 @@ TEST_CASE("@E255 ends the command with the device error and its text", "[dimetix
     const auto m = measure(line, s, 0);
     REQUIRE_FALSE(m);
     CHECK(m.error() == make_device_error(255));
-    CHECK(m.error().category() == device_category());
-    CHECK(m.error().message() ==
+    CHECK(std::error_code(m.error()).category() == device_category());
+    CHECK(std::error_code(m.error()).message() ==
           "@E255: received signal too low or distance not in range: use a more reflective target");
     CHECK(s.error() == make_device_error(255));
     CHECK(s.reply().kind == reply_kind::error);

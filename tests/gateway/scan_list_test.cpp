@@ -24,9 +24,9 @@ constexpr time_point at(duration d) {
     return time_point{} + d;
 }
 
-const std::error_code ok{};
-const std::error_code timeout = make_error_code(errc::timeout);
-const std::error_code refused = make_error_code(device_errc::illegal_data_value);
+const ferrule::error ok{};
+const ferrule::error timeout = errc::timeout;
+const ferrule::error refused = device_errc::illegal_data_value;
 
 transaction read(std::uint8_t unit, std::uint16_t address, std::uint16_t count,
                  std::uint16_t input_offset = 0) {
@@ -474,7 +474,7 @@ TEST_CASE("scan list: status of several offline units", "[gateway][scan]") {
     CHECK(next_index(s, out, at(10ms)) == 1);
     s.done(1, ok, registers({1, 2}), in, at(20ms));
     CHECK(next_index(s, out, at(20ms)) == 2);
-    s.done(2, make_error_code(errc::bad_checksum), response{}, in, at(30ms));
+    s.done(2, ferrule::error(errc::bad_checksum), response{}, in, at(30ms));
     CHECK(next_index(s, out, at(30ms)) == 3);
     s.done(3, ok, registers({3, 4}), in, at(40ms));
     CHECK(s.offline_count() == 2);
@@ -555,7 +555,7 @@ TEST_CASE("scan list: validate() refusals", "[gateway][scan]") {
         const std::array list{t};
         return scan_list(list).validate(in, out);
     };
-    const std::error_code bad = make_error_code(errc::invalid_argument);
+    const std::error_code bad = ferrule::error(errc::invalid_argument);
 
     CHECK(check(read(1, 0, 125, 0), 250, 0) == ok);
     CHECK(check(read(1, 0, 126, 0), 252, 0) == bad);

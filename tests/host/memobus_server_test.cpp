@@ -113,7 +113,7 @@ struct tcp_master {
     bool closed_by_server() {
         std::array<std::uint8_t, 8> b{};
         const auto r = line.read_some(b, line.now() + 2s);
-        return r.bytes == 0 && r.ec && r.ec != make_error_code(errc::timeout);
+        return r.bytes == 0 && r.ec && r.ec != ferrule::error(errc::timeout);
     }
 
     // Waits up to `wait` for the server to close the connection, dropping what it sends.
@@ -122,7 +122,7 @@ struct tcp_master {
         for (;;) {
             std::array<std::uint8_t, 256> b{};
             const auto r = line.read_some(b, deadline);
-            if (r.ec == make_error_code(errc::timeout)) return false;
+            if (r.ec == ferrule::error(errc::timeout)) return false;
             if (r.bytes == 0) return true;
         }
     }
@@ -182,7 +182,7 @@ struct udp_master {
     }
 
     result<mb::response> transact(const mb::request& r, std::chrono::milliseconds timeout = 2s) {
-        if (const auto ec = send(r)) return ec;
+        if (const auto ec = send(r)) return ferrule::from_error_code(ec);
         ::pollfd p{socket.native_handle(), POLLIN, 0};
         if (::poll(&p, 1, static_cast<int>(timeout.count())) != 1) return errc::timeout;
         asio::ip::udp::endpoint from;
@@ -400,7 +400,7 @@ TEST_CASE("memobus server: each channel has its own offsets and write range", "[
     w.address = 1005;
     const auto refused = b.transact(w);
     REQUIRE_FALSE(refused);
-    CHECK(refused.error() == mb::make_error_code(mb::device_errc::count_error));
+    CHECK(refused.error() == ferrule::error(mb::device_errc::count_error));
     // a's MW00005 is MW01005; b's is MW00005
     auto r = a.transact(make(mb::sfc::read_holding_registers_ext, 5, 1));
     REQUIRE(r);
@@ -446,7 +446,7 @@ TEST_CASE("memobus server: UDP peers, each its own channel, within max_channels"
     // A third peer finds no free channel: its datagrams are dropped.
     udp_master c(s.server.udp_port(), "127.0.0.3");
     CHECK(c.transact(make(mb::sfc::read_holding_registers_ext, 0, 1), 200ms).error() ==
-          make_error_code(errc::timeout));
+          ferrule::error(errc::timeout));
     CHECK(s.server.stats().udp_refused == 1);
     CHECK(a.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
 }
@@ -461,7 +461,7 @@ TEST_CASE("memobus server: a UDP peer silent for idle_timeout gives its channel 
     udp_master b(s.server.udp_port(), "127.0.0.2");
     REQUIRE(a.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));
     CHECK(b.transact(make(mb::sfc::read_holding_registers_ext, 0, 1), 50ms).error() ==
-          make_error_code(errc::timeout));
+          ferrule::error(errc::timeout));
     std::this_thread::sleep_for(100ms);
     ++b.serial; // the dropped request's
     CHECK(b.transact(make(mb::sfc::read_holding_registers_ext, 0, 1)));

@@ -74,7 +74,7 @@ struct tcp_client {
     bool closed_by_server() {
         std::array<std::uint8_t, 8> b{};
         const auto r = line.read_some(b, line.now() + 2s);
-        return r.bytes == 0 && r.ec && r.ec != make_error_code(errc::timeout);
+        return r.bytes == 0 && r.ec && r.ec != ferrule::error(errc::timeout);
     }
 
     void send(std::span<const std::uint8_t> bytes) {
@@ -88,7 +88,7 @@ struct tcp_client {
         for (;;) {
             std::array<std::uint8_t, 256> b{};
             const auto r = line.read_some(b, deadline);
-            if (r.ec == make_error_code(errc::timeout)) return std::nullopt;
+            if (r.ec == ferrule::error(errc::timeout)) return std::nullopt;
             if (r.bytes == 0) return got;
             got.insert(got.end(), b.begin(), b.begin() + static_cast<std::ptrdiff_t>(r.bytes));
         }

@@ -413,7 +413,7 @@ TEST_CASE("memobus master: the controller's error code, not resent", "[memobus][
     cfg.retries = 2;
     master m(cfg);
     std::array<std::uint16_t, 10> regs{};
-    const auto ec = read_words(line, m, mw(0), regs);
+    const std::error_code ec = read_words(line, m, mw(0), regs);
     CHECK(ec == device_errc::address_error);
     CHECK(ec.category() == device_category());
     CHECK(ec.message() == "controller: reference address error");

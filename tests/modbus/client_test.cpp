@@ -5,11 +5,11 @@
 #include <vector>
 
 #include "ferrule/core/driver.hpp"
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/modbus/access.hpp"
 #include "ferrule/modbus/client.hpp"
 #include "ferrule/modbus/rtu.hpp"
 #include "ferrule/modbus/tcp.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace std::chrono_literals;
 using namespace ferrule::modbus;
@@ -315,7 +315,7 @@ TEST_CASE("modbus client: exception responses are device errors, not resent",
     cfg.retries = 2;
     client c(cfg);
     std::array<std::uint16_t, 1> reg{};
-    const auto ec = read_holding_registers(line, c, 1, 0, reg);
+    const std::error_code ec = read_holding_registers(line, c, 1, 0, reg);
     CHECK(ec == device_errc::illegal_data_address);
     CHECK(ec.category() == device_category());
     CHECK_FALSE(c.succeeded());
@@ -562,7 +562,7 @@ TEST_CASE("modbus client: random responses end every transaction by its deadline
         mock_serial line(f9600, &peer);
         client c(cfg);
         std::array<std::uint16_t, 1> reg{};
-        const auto ec = read_holding_registers(line, c, 1, 0, reg);
+        const std::error_code ec = read_holding_registers(line, c, 1, 0, reg);
         CHECK((!ec || ec.category() == ferrule::errc_category() ||
                ec.category() == device_category()));
         CHECK(line.now() <= time_point{} + limit);

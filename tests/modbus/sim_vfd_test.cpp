@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "ferrule/core/bytes.hpp"
-#include "ferrule/sim/mock_serial.hpp"
 #include "ferrule/modbus/access.hpp"
 #include "ferrule/modbus/client.hpp"
 #include "ferrule/modbus/constants.hpp"
@@ -20,6 +19,7 @@
 #include "ferrule/modbus/rtu.hpp"
 #include "ferrule/modbus/sim/bus.hpp"
 #include "ferrule/modbus/sim/vfd.hpp"
+#include "ferrule/sim/mock_serial.hpp"
 
 using namespace ferrule;
 using namespace ferrule::modbus;
@@ -310,9 +310,9 @@ TEST_CASE("modbus sim bus: the codec's client runs the paper's four command clas
     CHECK(ramp[0] == 10);
     // Refusals come back as the device's exception codes.
     CHECK(write_register(line, c, 1, reg::frequency_setpoint, 6000) ==
-          make_error_code(device_errc::illegal_data_value));
+          ferrule::error(device_errc::illegal_data_value));
     CHECK(write_register(line, c, 1, reg::output_frequency, 0) ==
-          make_error_code(device_errc::illegal_data_address));
+          ferrule::error(device_errc::illegal_data_address));
     // Stop, and the diagnostic counters of the station's server.
     REQUIRE_FALSE(write_register(line, c, 1, reg::control_word, ctl::enable));
     const auto messages = diagnostics(line, c, 1, diag_sub::server_message_count);

@@ -302,12 +302,13 @@ TEST_CASE("a drive error reply is resent 4 times, then latches with the drive's 
     master m;
     const auto r = read_parameter(line, m, 1, 0x207E);
     REQUIRE_FALSE(r);
-    CHECK(r.error().category() == device_category());
+    CHECK(std::error_code(r.error()).category() == device_category());
     const auto f = fields_of(r.error());
     CHECK(f.error_class == 8);
     CHECK(f.code == 0);
     CHECK(f.additional == 0x0010);
-    CHECK(r.error().message().find("invalid parameter index") != std::string::npos);
+    CHECK(std::error_code(r.error()).message().find("invalid parameter index") !=
+          std::string::npos);
     CHECK(m.attempts() == 5);
     CHECK(m.stats().device_errors == 5);
     CHECK(m.fault_latched());
@@ -429,7 +430,7 @@ TEST_CASE("a transport error during a handshake poll does not leak into the next
     m.on_receive(busy, t0 + 30ms);
     REQUIRE(m.busy());
     REQUIRE(m.next(t0 + 30ms).what == ferrule::session_action::kind::wait);
-    m.on_transport_error(make_error_code(errc::transport));
+    m.on_transport_error(ferrule::error(errc::transport));
     REQUIRE(m.error() == errc::transport);
     const std::array<std::uint16_t, 3> pd3{0x0006, 0, 0};
     REQUIRE_FALSE(m.start_exchange(255, pdu_type::pd3, pd3));

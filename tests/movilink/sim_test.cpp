@@ -692,7 +692,7 @@ TEST_CASE("end to end: parameters by index, device errors, retries and the fault
         const std::size_t before = bus.replies_sent();
         const std::error_code ec = acyclic(m, param_channel::make(service::read, 0x2000));
         REQUIRE(ec.category() == device_category());
-        const device_error_fields f = fields_of(ec);
+        const device_error_fields f = fields_of(ec.value());
         CHECK(f.error_class == 8);
         CHECK(f.code == 0);
         CHECK(f.additional == 0x0010);
@@ -705,7 +705,7 @@ TEST_CASE("end to end: parameters by index, device errors, retries and the fault
         master dflt;
         const std::size_t before = bus.replies_sent();
         const std::error_code ec = acyclic(dflt, param_channel::make(service::read, 0x2000));
-        CHECK(fields_of(ec).additional == 0x0010);
+        CHECK(fields_of(ec.value()).additional == 0x0010);
         CHECK(dflt.attempts() == 5);
         CHECK(bus.replies_sent() - before == 5);
         CHECK(dflt.fault_latched());

@@ -174,7 +174,7 @@ int client(Stream& line, mb::client& c, std::uint8_t unit, bool extras, bool rtu
 
     ec = mb::read_holding_registers(line, c, unit, 100, reg);
     check("exception 02: read holding register 100",
-          ec == mb::make_error_code(mb::device_errc::illegal_data_address), ec);
+          ec == ferrule::error(mb::device_errc::illegal_data_address), ec);
 
     if (extras) {
         const auto echo = mb::diagnostics(line, c, unit, mb::diag_sub::return_query_data, 0xA537);

@@ -38,7 +38,7 @@ int main() {
     bool failed = false; // the last measurement was an error answer
     for (;;) {
         if (driver.step() != ferrule::session_action::kind::done) continue;
-        const std::error_code ec = dimetix_sensor.error();
+        const ferrule::error ec = dimetix_sensor.error();
         const bool was_connect = !connected;
         dimetix_sensor.clear();
         if (!ec) {
@@ -51,7 +51,7 @@ int main() {
                 failed = false;
                 board::report("distance=", d);
             }
-        } else if (ec.category() == device_category()) {
+        } else if (ec.domain() == &device_domain) {
             error_code = ec.value(); // the sensor answered: the link is fine
             failed = true;
             board::report("error=", error_code);

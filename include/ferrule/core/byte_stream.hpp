@@ -2,19 +2,18 @@
 // an asio port behind an adapter). The stream owns its clock.
 #pragma once
 
+#include "ferrule/core/error.hpp"
+#include "ferrule/core/time.hpp"
 #include <concepts>
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
-
-#include "ferrule/core/time.hpp"
 
 namespace ferrule {
 
 struct io_result {
     std::size_t bytes = 0;
-    std::error_code ec{};
+    error ec{};
 };
 
 template <class S>

@@ -6,7 +6,6 @@
 
 #include <array>
 #include <cstdint>
-#include <system_error>
 
 #include "ferrule/core/byte_stream.hpp"
 #include "ferrule/core/error.hpp"
@@ -25,7 +24,7 @@ void discard(S& stream) {
 // Runs the session's current transaction to completion. Returns the transaction's
 // outcome (the session's error()), or the transport error that ended it.
 template <session_stream S, master_session M>
-std::error_code run(S& stream, M& session) {
+ferrule::error run(S& stream, M& session) {
     std::array<std::uint8_t, 64> buf;
     for (;;) {
         const session_action a = session.next(stream.now());
@@ -46,7 +45,7 @@ std::error_code run(S& stream, M& session) {
             if (r.bytes > 0)
                 session.on_receive(std::span<const std::uint8_t>(buf.data(), r.bytes),
                                    stream.now());
-            else if (r.ec && r.ec != make_error_code(errc::timeout)) {
+            else if (r.ec && r.ec != errc::timeout) {
                 session.on_transport_error(r.ec);
                 return r.ec;
             }
@@ -66,7 +65,7 @@ public:
 
     session_action::kind step() {
         const session_action a = session_.next(stream_.now());
-        std::error_code ec;
+        ferrule::error ec;
         switch (a.what) {
         case session_action::kind::send:
             if (a.discard_input) detail::discard(stream_);
@@ -77,7 +76,7 @@ public:
             if (r.bytes > 0)
                 session_.on_receive(std::span<const std::uint8_t>(buf_.data(), r.bytes),
                                     stream_.now());
-            else if (r.ec != make_error_code(errc::timeout))
+            else if (r.ec != errc::timeout)
                 ec = r.ec;
             break;
         }
@@ -103,11 +102,11 @@ class station_driver {
 public:
     station_driver(S& stream, St& station) noexcept : stream_(stream), station_(station) {}
 
-    std::error_code step() {
+    ferrule::error step() {
         const io_result r = stream_.read_some(buf_, stream_.now());
         if (r.bytes > 0)
             station_.on_receive(std::span<const std::uint8_t>(buf_.data(), r.bytes), stream_.now());
-        else if (r.ec && r.ec != make_error_code(errc::timeout))
+        else if (r.ec && r.ec != errc::timeout)
             return r.ec;
         const session_action a = station_.next(stream_.now());
         if (a.what != session_action::kind::send) return {};

@@ -20,7 +20,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 
@@ -33,7 +32,7 @@ public:
     struct step {
         status what = status::need_more;
         std::size_t consumed = 0; // bytes of the input used; feed the rest again
-        stored_error ec{};
+        ferrule::error ec{};
     };
 
     step feed(std::span<const std::uint8_t> in) noexcept {

@@ -1,8 +1,6 @@
-// result<T>: a value or a std::error_code, for code built without exceptions.
-// Not constexpr where std::error_code is involved: it is no literal type before C++23.
+// result<T>: a value or a ferrule::error, for code built without exceptions.
 #pragma once
 
-#include <system_error>
 #include <type_traits>
 #include <utility>
 
@@ -15,25 +13,25 @@ class [[nodiscard]] result {
 public:
     constexpr result(T value) noexcept(std::is_nothrow_move_constructible_v<T>)
         : value_(std::move(value)) {}
-    result(std::error_code ec) noexcept : ec_(ec) {}
+    constexpr result(ferrule::error e) noexcept : error_(e) {}
     template <class E>
-    requires std::is_error_code_enum_v<E> result(E e)
-    noexcept : ec_(e) {}
+    requires is_error_enum_v<E>
+    constexpr result(E e) noexcept : error_(e) {}
 
-    constexpr bool has_value() const noexcept { return !ec_; }
-    constexpr explicit operator bool() const noexcept { return !ec_; }
-    std::error_code error() const noexcept { return ec_; }
+    constexpr bool has_value() const noexcept { return !error_; }
+    constexpr explicit operator bool() const noexcept { return !error_; }
+    constexpr ferrule::error error() const noexcept { return error_; }
 
     // Precondition: has_value(). Like std::optional::operator*, not checked.
     constexpr T& operator*() noexcept { return value_; }
     constexpr const T& operator*() const noexcept { return value_; }
     constexpr T* operator->() noexcept { return &value_; }
     constexpr const T* operator->() const noexcept { return &value_; }
-    constexpr T value_or(T fallback) const noexcept { return ec_ ? fallback : value_; }
+    constexpr T value_or(T fallback) const noexcept { return error_ ? fallback : value_; }
 
 private:
     T value_{};
-    stored_error ec_{};
+    ferrule::error error_{};
 };
 
 } // namespace ferrule

@@ -6,8 +6,8 @@
 #include <concepts>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
+#include "ferrule/core/error.hpp"
 #include "ferrule/core/time.hpp"
 
 namespace ferrule {
@@ -37,11 +37,11 @@ struct session_action {
 
 template <class M>
 concept master_session = requires(M& m, time_point t, std::span<const std::uint8_t> in,
-                                  std::error_code ec) {
+                                  ferrule::error ec) {
     { m.next(t) } -> std::same_as<session_action>;
     m.on_receive(in, t);
     m.on_transport_error(ec);
-    { m.error() } -> std::same_as<std::error_code>; // the finished transaction's outcome
+    { m.error() } -> std::same_as<ferrule::error>; // the finished transaction's outcome
 };
 
 } // namespace ferrule

@@ -23,7 +23,7 @@ result<reply> transact(S& stream, sensor& s, const command& c) {
 
 // sNc until gN? (S1 §8.2.1; the paper's start-up), up to connect_attempts times.
 template <session_stream S>
-std::error_code connect(S& stream, sensor& s, std::uint8_t id) {
+ferrule::error connect(S& stream, sensor& s, std::uint8_t id) {
     if (auto ec = s.start_connect(id)) return ec;
     return run(stream, s);
 }
@@ -55,8 +55,8 @@ result<std::int32_t> signal_strength(S& stream, sensor& s, std::uint8_t id) {
 
 // sNf+t: tracking into the one-value buffer, read with read_buffer() (S1 §8.2.5).
 template <session_stream S>
-std::error_code start_buffered_tracking(S& stream, sensor& s, std::uint8_t id,
-                                        std::int32_t sampling_ms) {
+ferrule::error start_buffered_tracking(S& stream, sensor& s, std::uint8_t id,
+                                       std::int32_t sampling_ms) {
     return transact(stream, s, tracking_buffered(id, sampling_ms)).error();
 }
 
@@ -76,13 +76,13 @@ result<buffered_distance> read_buffer(S& stream, sensor& s, std::uint8_t id) {
 
 // sNc: stops tracking / measuring, laser off (S1 §8.2.1).
 template <session_stream S>
-std::error_code stop(S& stream, sensor& s, std::uint8_t id) {
+ferrule::error stop(S& stream, sensor& s, std::uint8_t id) {
     return transact(stream, s, stop_clear(id)).error();
 }
 
 // sNo: laser on as a pointing aid until sNc (S1 §8.2.10).
 template <session_stream S>
-std::error_code laser_on(S& stream, sensor& s, std::uint8_t id) {
+ferrule::error laser_on(S& stream, sensor& s, std::uint8_t id) {
     return transact(stream, s, dimetix::laser_on(id)).error();
 }
 
@@ -94,7 +94,7 @@ result<reply> read_error_stack(S& stream, sensor& s, std::uint8_t id) {
 
 // sNce (S1 §8.2.9).
 template <session_stream S>
-std::error_code clear_error_stack(S& stream, sensor& s, std::uint8_t id) {
+ferrule::error clear_error_stack(S& stream, sensor& s, std::uint8_t id) {
     return transact(stream, s, dimetix::clear_error_stack(id)).error();
 }
 

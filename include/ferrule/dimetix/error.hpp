@@ -1,18 +1,17 @@
-// Dimetix device errors: the answer `gN@Ezzz` kept as a std::error_code whose value is the
-// code zzz, with the manual's meaning as the message (S1 §8.6 p.53-54). Codes the D-Series
-// table does not list but older generations or other sources use are marked as such
+// Dimetix device errors: the answer `gN@Ezzz` kept as a ferrule::error of device_domain whose
+// value is the code zzz, with the manual's meaning as the message (S1 §8.6 p.53-54). Codes the
+// D-Series table does not list but older generations or other sources use are marked as such
 // (dimetix.md §7.2); any other code is kept as it came, "not documented".
 #pragma once
 
-#include <string>
-#include <system_error>
+#include "ferrule/core/error.hpp"
 
 namespace ferrule::dimetix {
 
-// What the sensor answered with `gN@Ezzz`, as an error_code enum whose value is zzz.
+// What the sensor answered with `gN@Ezzz`, as an error enum whose value is zzz.
 enum class device_errc : int {
     // D-Series, S1 §8.6 p.53-54.
-    no_error = 0,  // in the error stack (an error_code of it is empty)
+    no_error = 0,  // in the error stack (an error of it is empty)
     boot_up = 200, // error stack marker
     wrong_command = 203,
     not_tracking = 210,
@@ -50,18 +49,16 @@ enum class device_errc : int {
     measuring_time_too_long = 361,
 };
 
-class device_category_t final : public std::error_category {
-public:
-    const char* name() const noexcept override { return "dimetix"; }
-    std::string message(int ev) const override {
-        // Built without snprintf, which would pull printf into firmware.
-        std::string m = "@E" + std::to_string(ev) + ": ";
-        m += describe(ev);
-        return m;
+struct device_domain_t {
+    // "@Ezzz: " and the manual's description.
+    static std::size_t format(int code, char* buf, std::size_t size) noexcept {
+        ferrule::detail::text_writer w(buf, size);
+        w.put("@E").put_decimal(static_cast<unsigned>(code)).put(": ").put(message(code));
+        return w.size();
     }
 
     // The manual's description and remedy; nullptr-free, unknown codes say so.
-    static const char* describe(int code) noexcept {
+    static constexpr const char* message(int code) noexcept {
         switch (static_cast<device_errc>(code)) {
         // D-Series, S1 §8.6 p.53-54.
         case device_errc::no_error: return "no error";
@@ -130,21 +127,29 @@ public:
     }
 };
 
-inline const std::error_category& device_category() noexcept {
-    static const device_category_t instance;
-    return instance;
+inline constexpr error_domain device_domain{"dimetix", &device_domain_t::message,
+                                            &device_domain_t::format};
+
+constexpr error make_error(device_errc e) noexcept {
+    return {static_cast<int>(e), device_domain};
 }
 
+// The error of an answer `gN@Ezzz` (code = zzz, e.g. 255).
+constexpr error make_device_error(int code) noexcept {
+    return {code, device_domain};
+}
+
+// Host bridge: device_domain's std::error_category.
+inline const std::error_category& device_category() {
+    return category_of(device_domain);
+}
 inline std::error_code make_error_code(device_errc e) noexcept {
-    return {static_cast<int>(e), device_category()};
-}
-
-// The error_code of an answer `gN@Ezzz` (code = zzz, e.g. 255).
-inline std::error_code make_device_error(int code) noexcept {
-    return make_error_code(static_cast<device_errc>(code));
+    return make_error(e);
 }
 
 } // namespace ferrule::dimetix
 
+template <>
+struct ferrule::is_error_enum<ferrule::dimetix::device_errc> : std::true_type {};
 template <>
 struct std::is_error_code_enum<ferrule::dimetix::device_errc> : std::true_type {};

@@ -10,7 +10,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/dimetix/constants.hpp"
@@ -23,7 +22,7 @@ public:
     struct step {
         status what = status::need_more;
         std::size_t consumed = 0; // bytes of the input used; feed the rest again
-        std::error_code ec{};
+        ferrule::error ec{};
     };
 
     step feed(std::span<const std::uint8_t> in) noexcept {
@@ -31,7 +30,7 @@ public:
         std::size_t i = 0;
         line_size_ = 0;
         while (what == status::need_more && i < in.size()) what = push(in[i++]);
-        std::error_code ec{};
+        ferrule::error ec{};
         if (what == status::error) ec = errc::malformed;
         return {what, i, ec};
     }

@@ -19,7 +19,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/result.hpp"
@@ -206,10 +205,10 @@ constexpr match classify(const command& c, answer a, const reply& r) noexcept {
 } // namespace detail
 
 // Whether `r` answers `c`, the command just sent: empty if it does; the sensor's error as
-// dimetix::device_category() code for `gN@Ezzz` from c's ID; errc::unexpected_address for
+// dimetix::device_domain code for `gN@Ezzz` from c's ID; errc::unexpected_address for
 // another ID; errc::unexpected_type for an answer of c's ID to something else (the startup
 // string `gN?` while waiting for a distance, a tracking line `gNh+…` after sNc, …).
-inline std::error_code check_answers(const command& c, const reply& r) noexcept {
+inline ferrule::error check_answers(const command& c, const reply& r) noexcept {
     const answer a = detail::expected_answer(c);
     if (a == answer::none) return errc::invalid_argument;
     switch (detail::classify(c, a, r)) {

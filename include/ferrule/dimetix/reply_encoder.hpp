@@ -16,7 +16,6 @@
 #include <cstdint>
 #include <span>
 #include <string_view>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/result.hpp"

@@ -27,7 +27,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/serial_format.hpp"
@@ -74,7 +73,7 @@ public:
         : wire_(cfg.format), cfg_(cfg) {}
 
     // One command: send it, wait for its answer, retry as configured.
-    std::error_code start(const command& c) noexcept {
+    ferrule::error start(const command& c) noexcept {
         if (busy()) return errc::busy;
         // A documented command form (S1 ch.8); parameter ranges are the sensor's to check
         // (@E203), validate() checks them beforehand.
@@ -93,7 +92,7 @@ public:
     }
 
     // The start-up of S1 §8.2.1 / the paper: sNc until the sensor acknowledges with gN?.
-    std::error_code start_connect(std::uint8_t id) noexcept {
+    ferrule::error start_connect(std::uint8_t id) noexcept {
         if (busy()) return errc::busy;
         if (id > max_id || cfg_.connect_attempts == 0) return errc::invalid_argument;
         cmd_ = {}; // stop_clear(id), built in place (smaller than a copy)
@@ -134,15 +133,15 @@ public:
         }
     }
 
-    void on_transport_error(std::error_code ec) noexcept {
+    void on_transport_error(ferrule::error ec) noexcept {
         if (!busy()) return;
         ++stats_.failed;
         finish(ec);
     }
 
     // Outcome of the finished command: empty, a ferrule::errc, or a device error
-    // (dimetix::device_category(), value = zzz of gN@Ezzz).
-    std::error_code error() const noexcept { return error_; }
+    // (dimetix::device_domain, value = zzz of gN@Ezzz).
+    ferrule::error error() const noexcept { return error_; }
     // The finished transaction succeeded: error() is empty.
     bool succeeded() const noexcept { return !error_; }
     // The answer (valid when error() is empty; for a device error the gN@Ezzz line).
@@ -173,7 +172,7 @@ private:
 
     // cmd_, checked by start(), answered by `a` within measurement_timeout after it was sent
     // if it `measures` (or writes flash), else within command_timeout.
-    std::error_code begin(answer a, bool measures, unsigned retries) noexcept {
+    ferrule::error begin(answer a, bool measures, unsigned retries) noexcept {
         tx_size_ = detail::encode_unchecked(cmd_, tx_.data());
         retries_ = retries;
         attempts_ = 0;
@@ -215,7 +214,7 @@ private:
     // A failed attempt: resent while attempts remain and `may_retry`, else the command fails
     // with `ec`. A line fault (timeout, malformed line) counts towards the fault latch; a
     // device error does not: the sensor answered.
-    void fail(std::error_code ec, bool may_retry, bool line_fault) noexcept {
+    void fail(ferrule::error ec, bool may_retry, bool line_fault) noexcept {
         error_ = ec; // while resending: the cause so far, replaced by the final outcome
         if (may_retry && attempts_ <= retries_) {
             state_ = state::pending_send;
@@ -226,7 +225,7 @@ private:
         state_ = state::done;
     }
 
-    void finish(std::error_code ec) noexcept {
+    void finish(ferrule::error ec) noexcept {
         error_ = ec;
         state_ = state::done;
     }
@@ -239,7 +238,7 @@ private:
     unsigned retries_ = 0;
     unsigned failures_ = 0;
     std::size_t tx_size_ = 0;
-    stored_error error_{};
+    ferrule::error error_{};
     time_point deadline_{};
     duration timeout_{};
     wire_clock wire_; // cfg_.format's character times

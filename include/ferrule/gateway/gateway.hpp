@@ -40,7 +40,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/session.hpp"
 #include "ferrule/core/time.hpp"
@@ -155,7 +154,7 @@ public:
     void on_modbus_receive(std::span<const std::uint8_t> bytes, time_point now) noexcept {
         mb_.on_receive(bytes, now);
     }
-    void on_modbus_error(std::error_code ec) noexcept { mb_.on_transport_error(ec); }
+    void on_modbus_error(ferrule::error ec) noexcept { mb_.on_transport_error(ec); }
 
     session_action next_modbus(time_point now) noexcept {
         for (;;) {
@@ -171,7 +170,7 @@ public:
                 const time_point t =
                     cfg_.mode == mode::mapped && dp_active_ ? list_.wake_at() : never;
                 return t == never || !before(now, t) ? session_action::idle()
-                                              : session_action::wait_until(t);
+                                                     : session_action::wait_until(t);
             }
         }
     }
@@ -304,9 +303,9 @@ private:
     }
 
     void finish(time_point now) noexcept {
-        const std::error_code ec = mb_.error();
-        const bool answered = !ec || ec.category() == modbus::device_category();
-        if (ec.category() == modbus::device_category()) {
+        const ferrule::error ec = mb_.error();
+        const bool answered = !ec || ec.domain() == &modbus::device_domain;
+        if (ec.domain() == &modbus::device_domain) {
             ++stats_.exceptions;
             last_exception_ = static_cast<std::uint8_t>(ec.value());
         }

@@ -62,7 +62,6 @@
 #include <cstdint>
 #include <optional>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/bytes.hpp"
 #include "ferrule/core/error.hpp"
@@ -166,7 +165,7 @@ public:
     // 1…125, write 1…121; AP §6) or address + count beyond 65536, unit 0 or > 247, an
     // unknown swap or update mode, DP bytes (registers or trigger byte) outside
     // input_size / output_size, or when the list has more than max_transactions entries.
-    std::error_code validate(std::size_t input_size, std::size_t output_size) const noexcept {
+    ferrule::error validate(std::size_t input_size, std::size_t output_size) const noexcept {
         using modbus::function;
         if (list_.size() > max_transactions) return errc::invalid_argument;
         for (const transaction& t : list_) {
@@ -252,15 +251,15 @@ public:
     // Modbus order) go swapped into `inputs` at input_offset, a write's bytes count as
     // written (on_change), the unit is online. Read data of another size than asked
     // (errc::malformed) or beyond `inputs` (errc::buffer_too_small) fails the entry, though
-    // the unit answered. An exception response (modbus::device_category()) shows the unit
+    // the unit answered. An exception response (modbus::device_domain) shows the unit
     // is there: it is online, the entry failed. Any other error counts towards the unit's
     // offline_after.
-    void done(std::size_t index, std::error_code ec, const modbus::response& r,
+    void done(std::size_t index, ferrule::error ec, const modbus::response& r,
               std::span<std::uint8_t> inputs, time_point now) noexcept {
         if (index >= list_.size() || list_.size() > max_transactions) return;
         const transaction& t = list_[index];
         const std::size_t u = unit_of_[index];
-        const bool answered = !ec || ec.category() == modbus::device_category();
+        const bool answered = !ec || ec.domain() == &modbus::device_domain;
         if (!ec && detail::reads(t.function)) {
             const std::size_t bytes = detail::read_bytes(t);
             if (r.data.size() != bytes)
@@ -306,7 +305,7 @@ public:
 
     // The outcome of the entry's last transaction ({} before it ran, or when it succeeded);
     // errc::invalid_argument for an index beyond the list.
-    std::error_code last_error(std::size_t index) const noexcept {
+    ferrule::error last_error(std::size_t index) const noexcept {
         if (index >= list_.size() || index >= max_transactions) return errc::invalid_argument;
         return errors_[index];
     }
@@ -389,7 +388,7 @@ private:
     // Per entry.
     std::array<std::uint8_t, max_transactions> unit_of_{}; // slot of its unit
     std::array<time_point, max_transactions> last_start_{};
-    std::array<std::error_code, max_transactions> errors_{};
+    std::array<ferrule::error, max_transactions> errors_{};
     std::array<std::uint8_t, max_transactions> trigger_seen_{};
     std::array<std::array<std::uint8_t, max_write_bytes>, max_transactions> written_bytes_{};
     std::uint32_t started_ = 0;

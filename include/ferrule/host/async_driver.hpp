@@ -34,8 +34,8 @@
 #include <type_traits>
 #include <utility>
 
-#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/core/session.hpp"
+#include "ferrule/host/serial_stream.hpp"
 
 namespace ferrule::host {
 
@@ -113,7 +113,7 @@ private:
     }
 
     void transport_failed(std::error_code ec) {
-        session_.on_transport_error(ec);
+        session_.on_transport_error(from_error_code(ec));
         needs_reopen_ = true;
     }
 

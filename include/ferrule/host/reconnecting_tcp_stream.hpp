@@ -16,9 +16,9 @@
 #include <span>
 #include <system_error>
 
-#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/core/byte_stream.hpp"
 #include "ferrule/core/error.hpp"
+#include "ferrule/host/serial_stream.hpp"
 
 namespace ferrule::host {
 
@@ -42,7 +42,7 @@ public:
 
     io_result write(std::span<const std::uint8_t> out) {
         if (!socket_.is_open()) {
-            if (const auto ec = connect()) return {0, ec};
+            if (const auto ec = connect()) return {0, from_error_code(ec)};
         }
         const io_result r = stream().write(out);
         if (r.ec) lost();
@@ -50,9 +50,9 @@ public:
     }
 
     io_result read_some(std::span<std::uint8_t> in, time_point deadline) {
-        if (!socket_.is_open()) return {0, make_error_code(errc::transport)};
+        if (!socket_.is_open()) return {0, errc::transport};
         const io_result r = stream().read_some(in, deadline);
-        if (r.ec && r.ec != make_error_code(errc::timeout)) lost();
+        if (r.ec && r.ec != errc::timeout) lost();
         return r;
     }
 

@@ -41,7 +41,7 @@ inline time_point steady_now() noexcept {
 // empty then; errc::timeout once `deadline` (steady_now()'s clock) has passed; the system's
 // error when ppoll() fails. An interrupted or early wake-up waits again. The streams below
 // wait this way, with no io_context run and no timer per call.
-inline std::error_code wait_readable(int fd, time_point deadline) noexcept {
+inline error wait_readable(int fd, time_point deadline) noexcept {
     for (;;) {
         const duration left = deadline - steady_now();
         const auto wait =
@@ -51,8 +51,8 @@ inline std::error_code wait_readable(int fd, time_point deadline) noexcept {
         ::pollfd p{fd, POLLIN, 0};
         const int ready = ::ppoll(&p, 1, &ts, nullptr);
         if (ready > 0) return {};
-        if (ready < 0 && errno != EINTR) return {errno, std::system_category()};
-        if (ready == 0 && left <= duration::zero()) return make_error_code(errc::timeout);
+        if (ready < 0 && errno != EINTR) return {errno, system_domain};
+        if (ready == 0 && left <= duration::zero()) return errc::timeout;
     }
 }
 
@@ -74,7 +74,7 @@ public:
     io_result write(std::span<const std::uint8_t> out) {
         std::error_code ec;
         const std::size_t n = ::asio::write(port_, ::asio::buffer(out.data(), out.size()), ec);
-        if (ec) return {n, ec};
+        if (ec) return {n, from_error_code(ec)};
         if (tap_) tap_(direction::tx, out.first(n), now());
         return {n, {}};
     }
@@ -93,7 +93,7 @@ public:
                 return {got, {}};
             }
             if (ec != ::asio::error::would_block && ec != ::asio::error::try_again)
-                return {0, ec ? ec : make_error_code(errc::transport)};
+                return {0, ec ? from_error_code(ec) : errc::transport};
         }
     }
 

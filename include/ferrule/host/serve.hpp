@@ -49,7 +49,7 @@ serve_while(S& line, Session& session, duration check_interval, KeepGoing&& keep
         const io_result r = line.read_some(buf, until);
         if (r.bytes > 0)
             session.on_receive({buf.data(), r.bytes}, line.now());
-        else if (r.ec && r.ec != make_error_code(errc::timeout))
+        else if (r.ec && r.ec != errc::timeout)
             return fail(r.ec);
     }
 }

@@ -18,8 +18,8 @@
 #include <ctime>
 #include <span>
 
-#include "ferrule/host/serial_stream.hpp"
 #include "ferrule/gateway/gateway.hpp"
+#include "ferrule/host/serial_stream.hpp"
 
 namespace ferrule::host {
 
@@ -57,7 +57,7 @@ bool serve_gateway(gateway::core& gw, int dp_fd, DpWrite&& dp_write, serial_stre
                 gw.on_modbus_receive({buf.data(), r.bytes}, steady_now());
             else if (fds[1].revents & (POLLHUP | POLLERR | POLLNVAL))
                 return false;
-            else if (r.ec && r.ec != make_error_code(errc::timeout))
+            else if (r.ec && r.ec != errc::timeout)
                 gw.on_modbus_error(r.ec);
         }
     }

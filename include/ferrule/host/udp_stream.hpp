@@ -42,8 +42,8 @@ public:
     io_result write(std::span<const std::uint8_t> out) {
         std::error_code ec;
         const std::size_t n = socket_.send(::asio::buffer(out.data(), out.size()), 0, ec);
-        if (ec) return {n, ec};
-        if (n != out.size()) return {n, make_error_code(errc::transport)};
+        if (ec) return {n, from_error_code(ec)};
+        if (n != out.size()) return {n, errc::transport};
         if (tap_) tap_(direction::tx, out, now());
         return {n, {}};
     }
@@ -72,12 +72,12 @@ public:
     }
 
 private:
-    std::error_code receive(time_point deadline) {
+    error receive(time_point deadline) {
         for (;;) {
             if (const auto ec = wait_readable(socket_.native_handle(), deadline)) return ec;
             std::error_code ec;
             const std::size_t got = socket_.receive(::asio::buffer(datagram_), 0, ec);
-            if (ec) return ec;
+            if (ec) return from_error_code(ec);
             if (got > 0) {
                 pos_ = 0;
                 size_ = got;

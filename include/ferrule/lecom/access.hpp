@@ -3,7 +3,6 @@
 #pragma once
 
 #include <cstdint>
-#include <system_error>
 
 #include "ferrule/core/byte_stream.hpp"
 #include "ferrule/core/driver.hpp"
@@ -25,9 +24,9 @@ result<value> read(S& stream, master& m, std::uint8_t address, code_address c) {
 // SEND: writes `v` to code `c`. A write to 00 or x0 reaches a group and is not acknowledged
 // (S1 p.8-24): it returns {} once the drives' processing time has passed.
 template <session_stream S>
-std::error_code write(S& stream, master& m, std::uint8_t address, code_address c, const value& v) {
+ferrule::error write(S& stream, master& m, std::uint8_t address, code_address c, const value& v) {
     if (auto ec = m.start_write(address, c, v)) return ec;
-    const std::error_code ec = run(stream, m);
+    const ferrule::error ec = run(stream, m);
     if (ec == errc::no_response_expected) return {};
     return ec;
 }

@@ -1,10 +1,9 @@
-// What a LECOM drive answers instead of a value or an ACK, as std::error_code values of
-// lecom::device_category(), so callers can tell them apart from transport errors
+// What a LECOM drive answers instead of a value or an ACK, as ferrule::error values of
+// lecom::device_domain, so callers can tell them apart from transport errors
 // (ferrule::errc: timeout = no reply, bad_checksum = bad BCC from the drive).
 #pragma once
 
-#include <string>
-#include <system_error>
+#include "ferrule/core/error.hpp"
 
 namespace ferrule::lecom {
 
@@ -14,12 +13,8 @@ enum class device_errc {
     write_refused = 3,       // NAK to SEND: parity/BCC, unknown code, range or access (S1 p.8-20)
 };
 
-class device_category_t final : public std::error_category {
-public:
-    const char* name() const noexcept override { return "lecom"; }
-    std::string message(int ev) const override { return describe(ev); }
-
-    static const char* describe(int ev) noexcept {
+struct device_domain_t {
+    static constexpr const char* message(int ev) noexcept {
         switch (static_cast<device_errc>(ev)) {
         case device_errc::code_does_not_exist: return "the drive has no such code";
         case device_errc::checksum_fault:
@@ -32,16 +27,23 @@ public:
     }
 };
 
-inline const std::error_category& device_category() noexcept {
-    static const device_category_t instance;
-    return instance;
+inline constexpr error_domain device_domain{"lecom", &device_domain_t::message};
+
+constexpr error make_error(device_errc e) noexcept {
+    return {static_cast<int>(e), device_domain};
 }
 
+// Host bridge: device_domain's std::error_category.
+inline const std::error_category& device_category() {
+    return category_of(device_domain);
+}
 inline std::error_code make_error_code(device_errc e) noexcept {
-    return {static_cast<int>(e), device_category()};
+    return make_error(e);
 }
 
 } // namespace ferrule::lecom
 
+template <>
+struct ferrule::is_error_enum<ferrule::lecom::device_errc> : std::true_type {};
 template <>
 struct std::is_error_code_enum<ferrule::lecom::device_errc> : std::true_type {};

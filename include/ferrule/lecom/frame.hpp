@@ -20,7 +20,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/checksum.hpp"
 #include "ferrule/core/error.hpp"
@@ -244,7 +243,7 @@ public:
     struct step {
         status what = status::need_more;
         std::size_t consumed = 0; // bytes of the input used; feed the rest again
-        std::error_code ec{};
+        ferrule::error ec{};
     };
 
     explicit frame_decoder(accept a = accept::replies) noexcept : accept_(a) {}

@@ -46,7 +46,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/fault_latch.hpp"
@@ -91,12 +90,12 @@ public:
         : cfg_(cfg), reply_allowance_(cfg.format.chars_time(max_reply_length)) {}
 
     // RECEIVE: read code `c` of drive `address` (01…99, not x0: a group never answers).
-    std::error_code start_read(std::uint8_t address, code_address c) noexcept {
+    ferrule::error start_read(std::uint8_t address, code_address c) noexcept {
         return begin(address, c, nullptr);
     }
 
     // SEND: write `v` to code `c` of drive `address`; 00 and x0 reach a group (no reply).
-    std::error_code start_write(std::uint8_t address, code_address c, const value& v) noexcept {
+    ferrule::error start_write(std::uint8_t address, code_address c, const value& v) noexcept {
         return begin(address, c, &v);
     }
 
@@ -126,7 +125,7 @@ public:
         }
     }
 
-    void on_transport_error(std::error_code ec) noexcept {
+    void on_transport_error(ferrule::error ec) noexcept {
         if (!busy()) return;
         ++d_.stats.failed;
         finish(ec);
@@ -135,7 +134,7 @@ public:
     // Outcome of the finished transaction: empty on success; errc::no_response_expected for a
     // broadcast; otherwise the cause of the last failed attempt, a ferrule::errc or a
     // lecom::device_errc.
-    std::error_code error() const noexcept { return d_.error; }
+    ferrule::error error() const noexcept { return d_.error; }
     // The finished transaction succeeded: error() is empty.
     bool succeeded() const noexcept { return !d_.error; }
     // The last reply telegram parsed: for a successful read the data reply (value in
@@ -171,7 +170,7 @@ private:
     enum class rx : std::uint8_t { idle, text, bcc };
 
     // A RECEIVE when `v` is null, else a SEND of *v.
-    std::error_code begin(std::uint8_t address, const code_address& c, const value* v) noexcept {
+    ferrule::error begin(std::uint8_t address, const code_address& c, const value* v) noexcept {
         if (busy()) return errc::busy;
         if (d_.latch.fault_latched()) return errc::fault_latched;
         // request_bytes() keeps the last request if this one is refused.
@@ -290,7 +289,7 @@ private:
     }
 
     // A failed attempt, counted in `counter`.
-    void fail(std::error_code ec, std::uint32_t& counter, bool may_retry) noexcept {
+    void fail(ferrule::error ec, std::uint32_t& counter, bool may_retry) noexcept {
         ++counter;
         if (d_.latch.retry(d_.attempts, cfg_.retries, cfg_.fault_threshold, may_retry)) {
             d_.error = ec; // the cause so far, replaced by the final outcome
@@ -301,7 +300,7 @@ private:
         finish(ec);
     }
 
-    void finish(std::error_code ec) noexcept {
+    void finish(ferrule::error ec) noexcept {
         d_.error = ec;
         d_.state = state::done;
     }
@@ -329,7 +328,7 @@ private:
         std::size_t rx_size = 0;
         time_point send_after = time_point::min();
         time_point deadline{}; // end of the request + response_timeout (broadcast_spacing)
-        stored_error error{};
+        ferrule::error error{};
         fault_latch latch{};
     };
 

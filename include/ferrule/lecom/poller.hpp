@@ -42,7 +42,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/result.hpp"
@@ -65,7 +64,7 @@ struct poll_item {
 
 struct item_state {
     value last{};            // the value of the last good read
-    std::error_code error{}; // outcome of the last read
+    ferrule::error error{};  // outcome of the last read
     time_point updated{};    // when `last` was read (the reply's end)
     std::uint32_t reads = 0; // reads finished, good or not
     std::uint32_t failures = 0;
@@ -92,7 +91,7 @@ struct poll_event {
     std::size_t item = 0; // reads only
     std::uint8_t address = 0;
     code_address code{};
-    std::error_code error{};
+    ferrule::error error{};
     lecom::value value{}; // read: the value read (on error the item's last good one); write:
                           // the value written
 };
@@ -130,7 +129,7 @@ public:
     // Queues a SEND, sent before the next due poll; FIFO. 00 / x0 reach a group. busy when
     // MaxWrites writes wait or are under way; invalid_argument for what the master could not
     // send.
-    std::error_code write(std::uint8_t address, code_address c, const value& v) noexcept {
+    ferrule::error write(std::uint8_t address, code_address c, const value& v) noexcept {
         if (!is_valid_request(address, c, &v)) return errc::invalid_argument;
         if (t_.queued == MaxWrites) return errc::busy;
         t_.writes[(t_.head + t_.queued) % MaxWrites] = queued_write{address, c, v};
@@ -154,9 +153,9 @@ public:
     void on_receive(std::span<const std::uint8_t> in, time_point now) noexcept {
         m_.on_receive(in, now);
     }
-    void on_transport_error(std::error_code ec) noexcept { m_.on_transport_error(ec); }
+    void on_transport_error(ferrule::error ec) noexcept { m_.on_transport_error(ec); }
     // Outcome of the last finished transaction.
-    std::error_code error() const noexcept { return t_.last.error; }
+    ferrule::error error() const noexcept { return t_.last.error; }
 
     // --- results -----------------------------------------------------------------------
     std::span<const poll_item> items() const noexcept { return {t_.items.data(), t_.count}; }
@@ -242,7 +241,7 @@ private:
 
     // The transaction has finished: its event, the item's or the write's bookkeeping.
     void harvest(time_point now) noexcept {
-        const std::error_code ec = m_.error();
+        const ferrule::error ec = m_.error();
         const frame& request = m_.request();
         ++t_.completed;
         t_.last.error = ec;
@@ -290,18 +289,18 @@ private:
     }
 
     // Device errors are answers; transport errors are the host's port.
-    void account(std::size_t d, std::error_code ec, bool write) noexcept {
+    void account(std::size_t d, ferrule::error ec, bool write) noexcept {
         drive_state& s = t_.drives[d];
         ++s.transactions;
         s.writes += write;
-        if (!ec || ec.category() == device_category()) {
+        if (!ec || ec.domain() == &device_domain) {
             s.seen = true;
             s.online = true;
             s.misses = 0;
         }
         if (!ec) return;
         ++s.failures;
-        if (ec.category() != errc_category()) return;
+        if (ec.domain() != &errc_domain) return;
         if (ec.value() == static_cast<int>(errc::timeout)) ++s.timeouts;
         if (!is_miss(ec.value())) return;
         ++s.misses;

@@ -25,7 +25,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/queued_reply.hpp"
@@ -85,7 +84,7 @@ public:
     // the request's code field, or a bare eot / nak; a SEND takes ack or nak. With
     // bare_replies a no_code reply goes out as a bare EOT and a fault reply as a bare NAK.
     // Refused with errc::no_response_expected for 00 / x0: consume() those.
-    std::error_code respond(const frame& reply) noexcept {
+    ferrule::error respond(const frame& reply) noexcept {
         if (!request_pending_) return errc::invalid_argument;
         if (!response_expected()) return errc::no_response_expected;
         if (!fits(reply)) return errc::invalid_argument;

@@ -12,7 +12,6 @@
 #include <cstdint>
 #include <span>
 #include <string_view>
-#include <system_error>
 
 #include "ferrule/core/byte_stream.hpp"
 #include "ferrule/core/driver.hpp"
@@ -39,7 +38,7 @@ constexpr register_ref ib(std::uint16_t word, std::uint8_t bit) noexcept {
 
 namespace detail {
 template <session_stream S>
-std::error_code transact(S& stream, master& m, const request& r) {
+ferrule::error transact(S& stream, master& m, const request& r) {
     if (auto ec = m.start(r)) return ec;
     return run(stream, m);
 }
@@ -55,8 +54,8 @@ inline bool bit_range(const register_ref& first, std::size_t count, std::uint16_
 
 // SFC 09 (MW) or 0A (IW): out.size() registers, 1…2044, from `first`.
 template <session_stream S>
-std::error_code read_words(S& stream, master& m, const register_ref& first,
-                           std::span<std::uint16_t> out) {
+ferrule::error read_words(S& stream, master& m, const register_ref& first,
+                          std::span<std::uint16_t> out) {
     if (is_bit(first.kind) || out.empty() || out.size() > max_read_registers_ext)
         return errc::invalid_argument;
     request r;
@@ -71,8 +70,8 @@ std::error_code read_words(S& stream, master& m, const register_ref& first,
 
 // SFC 0B: values.size() registers, 1…2043, from MW `first`.
 template <session_stream S>
-std::error_code write_words(S& stream, master& m, const register_ref& first,
-                            std::span<const std::uint16_t> values) {
+ferrule::error write_words(S& stream, master& m, const register_ref& first,
+                           std::span<const std::uint16_t> values) {
     if (first.kind != register_kind::mw || values.empty() ||
         values.size() > max_write_registers_ext)
         return errc::invalid_argument;
@@ -86,7 +85,7 @@ std::error_code write_words(S& stream, master& m, const register_ref& first,
 
 // SFC 01 (MB, coils) or 02 (IB, input relays): out.size() bits, 1…2000, from `first`.
 template <session_stream S>
-std::error_code read_bits(S& stream, master& m, const register_ref& first, std::span<bool> out) {
+ferrule::error read_bits(S& stream, master& m, const register_ref& first, std::span<bool> out) {
     request r;
     if (out.empty() || out.size() > max_read_bits ||
         !detail::bit_range(first, out.size(), r.address))
@@ -100,8 +99,8 @@ std::error_code read_bits(S& stream, master& m, const register_ref& first, std::
 
 // SFC 0F: values.size() coils, 1…800, from MB `first`.
 template <session_stream S>
-std::error_code write_bits(S& stream, master& m, const register_ref& first,
-                           std::span<const bool> values) {
+ferrule::error write_bits(S& stream, master& m, const register_ref& first,
+                          std::span<const bool> values) {
     request r;
     if (first.kind != register_kind::mb || values.empty() || values.size() > max_write_bits ||
         !detail::bit_range(first, values.size(), r.address))
@@ -117,7 +116,7 @@ std::error_code write_bits(S& stream, master& m, const register_ref& first,
 
 // SFC 05: one coil, MB `bit`.
 template <session_stream S>
-std::error_code write_bit(S& stream, master& m, const register_ref& bit, bool on) {
+ferrule::error write_bit(S& stream, master& m, const register_ref& bit, bool on) {
     request r;
     if (bit.kind != register_kind::mb || !detail::bit_range(bit, 1, r.address))
         return errc::invalid_argument;
@@ -129,8 +128,8 @@ std::error_code write_bit(S& stream, master& m, const register_ref& bit, bool on
 
 // SFC 0D: MW registers at the word numbers `words` (1…2044) into out (as many).
 template <session_stream S>
-std::error_code read_random(S& stream, master& m, std::span<const std::uint16_t> words,
-                            std::span<std::uint16_t> out) {
+ferrule::error read_random(S& stream, master& m, std::span<const std::uint16_t> words,
+                           std::span<std::uint16_t> out) {
     if (words.empty() || words.size() > max_read_registers_ext || out.size() != words.size())
         return errc::invalid_argument;
     request r;
@@ -145,8 +144,8 @@ std::error_code read_random(S& stream, master& m, std::span<const std::uint16_t>
 // SFC 0E: values[i] to MW words[i], 1…1022 registers. The request's pairs are built on the
 // stack (4 KiB for 1022).
 template <session_stream S>
-std::error_code write_random(S& stream, master& m, std::span<const std::uint16_t> words,
-                             std::span<const std::uint16_t> values) {
+ferrule::error write_random(S& stream, master& m, std::span<const std::uint16_t> words,
+                            std::span<const std::uint16_t> values) {
     if (words.empty() || words.size() > max_write_random || values.size() != words.size())
         return errc::invalid_argument;
     std::array<std::uint16_t, 2 * std::size_t{max_write_random}> pairs{};
@@ -163,7 +162,7 @@ std::error_code write_random(S& stream, master& m, std::span<const std::uint16_t
 
 // SFC 08: test code 0 and `data` (the manual's example: AAAA), echoed by the controller.
 template <session_stream S>
-std::error_code loopback(S& stream, master& m, std::uint16_t data = 0xAAAA) {
+ferrule::error loopback(S& stream, master& m, std::uint16_t data = 0xAAAA) {
     request r;
     r.function = sfc::loopback;
     r.value = data;
@@ -174,26 +173,26 @@ std::error_code loopback(S& stream, master& m, std::uint16_t data = 0xAAAA) {
 // beyond its area (MW65535) is errc::out_of_range, anything else that is no name
 // errc::invalid_argument.
 template <session_stream S>
-std::error_code read(S& stream, master& m, std::string_view name, std::span<std::uint16_t> out) {
+ferrule::error read(S& stream, master& m, std::string_view name, std::span<std::uint16_t> out) {
     const auto first = parse_register(name);
     if (!first) return first.error();
     return read_words(stream, m, *first, out);
 }
 template <session_stream S>
-std::error_code read(S& stream, master& m, std::string_view name, std::span<bool> out) {
+ferrule::error read(S& stream, master& m, std::string_view name, std::span<bool> out) {
     const auto first = parse_register(name);
     if (!first) return first.error();
     return read_bits(stream, m, *first, out);
 }
 template <session_stream S>
-std::error_code write(S& stream, master& m, std::string_view name,
-                      std::span<const std::uint16_t> values) {
+ferrule::error write(S& stream, master& m, std::string_view name,
+                     std::span<const std::uint16_t> values) {
     const auto first = parse_register(name);
     if (!first) return first.error();
     return write_words(stream, m, *first, values);
 }
 template <session_stream S>
-std::error_code write(S& stream, master& m, std::string_view name, std::span<const bool> values) {
+ferrule::error write(S& stream, master& m, std::string_view name, std::span<const bool> values) {
     const auto first = parse_register(name);
     if (!first) return first.error();
     return write_bits(stream, m, *first, values);

@@ -1,9 +1,10 @@
 // The error codes of an Extended MEMOBUS error response (SFC | 0x80, §3.5) as
-// std::error_code values in memobus::device_category().
+// ferrule::error values of memobus::device_domain.
 #pragma once
 
-#include <string>
-#include <system_error>
+#include <cstdint>
+
+#include "ferrule/core/error.hpp"
 
 namespace ferrule::memobus {
 
@@ -16,13 +17,9 @@ enum class device_errc : int {
     local_register_type_error = 0x42,
 };
 
-class device_category_t final : public std::error_category {
-public:
-    const char* name() const noexcept override { return "memobus"; }
-    std::string message(int ev) const override { return describe(static_cast<device_errc>(ev)); }
-
-    static const char* describe(device_errc e) noexcept {
-        switch (e) {
+struct device_domain_t {
+    static constexpr const char* message(int ev) noexcept {
+        switch (static_cast<device_errc>(ev)) {
         case device_errc::sfc_error: return "controller: function (SFC) error";
         case device_errc::address_error: return "controller: reference address error";
         case device_errc::count_error: return "controller: number of data items error";
@@ -35,16 +32,30 @@ public:
     }
 };
 
-inline const std::error_category& device_category() noexcept {
-    static const device_category_t instance;
-    return instance;
+inline constexpr error_domain device_domain{"memobus", &device_domain_t::message};
+
+constexpr error make_error(device_errc e) noexcept {
+    return {static_cast<int>(e), device_domain};
 }
 
+// The error for the error code of an error response (§3.5). No code is 0, and an
+// error of value 0 would read as "no error": a 0 there makes the reply malformed.
+constexpr error make_device_error(std::uint8_t code) noexcept {
+    if (code == 0) return errc::malformed;
+    return {code, device_domain};
+}
+
+// Host bridge: device_domain's std::error_category.
+inline const std::error_category& device_category() {
+    return category_of(device_domain);
+}
 inline std::error_code make_error_code(device_errc e) noexcept {
-    return {static_cast<int>(e), device_category()};
+    return make_error(e);
 }
 
 } // namespace ferrule::memobus
 
+template <>
+struct ferrule::is_error_enum<ferrule::memobus::device_errc> : std::true_type {};
 template <>
 struct std::is_error_code_enum<ferrule::memobus::device_errc> : std::true_type {};

@@ -12,7 +12,7 @@
 //     HSL server's bug, §2), serial, then MFC 0x20, SFC and count (parse_response()). A
 //     message with another serial is stale: dropped and counted, the wait goes on (a late
 //     answer to an earlier attempt)
-//   * SFC | 0x80 is the controller's error code (§3.5), a memobus::device_category() error,
+//   * SFC | 0x80 is the controller's error code (§3.5), a memobus::device_domain error,
 //     not resent; a wrong type, MFC, SFC or length is errc::unexpected_type / malformed and
 //     resent like a timeout, up to `retries` times
 //   * bytes that start no message are counted as malformed once per run and skipped; at the
@@ -28,7 +28,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/fault_latch.hpp"
@@ -73,7 +72,7 @@ public:
     // Starts a transaction. The CPU byte is the configuration's, not r.cpu. invalid_argument
     // for a request encode_command() refuses (limits of §3.4, words or bits that do not match
     // the count); r.words and r.bits need not outlive the call.
-    std::error_code start(const request& r) noexcept {
+    ferrule::error start(const request& r) noexcept {
         if (busy()) return errc::busy;
         if (latch_.fault_latched()) return errc::fault_latched;
         request q = r;
@@ -126,15 +125,15 @@ public:
         stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
     }
 
-    void on_transport_error(std::error_code ec) noexcept {
+    void on_transport_error(ferrule::error ec) noexcept {
         if (!busy()) return;
         ++stats_.failed;
         finish(ec);
     }
 
     // Outcome of the finished transaction: empty on success, else the cause of the last
-    // failed attempt: a ferrule::errc or the controller's memobus::device_category() code.
-    std::error_code error() const noexcept { return error_; }
+    // failed attempt: a ferrule::errc or the controller's memobus::device_domain code.
+    ferrule::error error() const noexcept { return error_; }
     // The finished transaction succeeded: error() is empty.
     bool succeeded() const noexcept { return !error_; }
     // The response of a successful transaction; its raw data spans the session's buffer,
@@ -195,7 +194,7 @@ private:
         }
         const auto parsed = parse_response(sent_, rx_.body(), cfg_.order);
         if (!parsed) {
-            if (parsed.error().category() == device_category()) {
+            if (parsed.error().domain() == &device_domain) {
                 ++stats_.device_errors;
                 fail(parsed.error(), false);
                 return;
@@ -211,7 +210,7 @@ private:
     }
 
     // An attempt failed: resend while retries are left (a controller error is not resent).
-    void fail(std::error_code ec, bool may_retry = true) noexcept {
+    void fail(ferrule::error ec, bool may_retry = true) noexcept {
         if (latch_.retry(attempts_, cfg_.retries, cfg_.fault_threshold, may_retry)) {
             error_ = ec; // the cause so far, replaced by the final outcome
             state_ = state::pending_send;
@@ -221,7 +220,7 @@ private:
         finish(ec);
     }
 
-    void finish(std::error_code ec) noexcept {
+    void finish(ferrule::error ec) noexcept {
         error_ = ec;
         state_ = state::done;
     }
@@ -235,7 +234,7 @@ private:
     std::size_t tx_size_ = 0;
     message_decoder rx_{};
     time_point deadline_{};
-    stored_error error_{};
+    ferrule::error error_{};
     unsigned attempts_ = 0;
     fault_latch latch_{};
     std::uint8_t next_serial_ = 0;

@@ -25,7 +25,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/bytes.hpp"
 #include "ferrule/core/error.hpp"
@@ -238,12 +237,12 @@ inline result<std::size_t> encode_command(const request& r, std::uint8_t serial,
 inline result<request> parse_request(std::span<const std::uint8_t> body,
                                      data_order order = data_order::big_endian) noexcept {
     if (body.size() < length_size + 3 || body[2] != mfc_extended)
-        return make_error_code(device_errc::sfc_error);
+        return make_error(device_errc::sfc_error);
     request r;
     r.function = static_cast<sfc>(body[3]);
     r.cpu = body[4];
     const auto p = body.subspan(5); // after the CPU byte
-    const auto count_error = make_error_code(device_errc::count_error);
+    const auto count_error = make_error(device_errc::count_error);
     switch (r.function) {
     case sfc::read_coils:
     case sfc::read_input_relays:
@@ -295,9 +294,9 @@ inline result<request> parse_request(std::span<const std::uint8_t> body,
         r.raw = p.subspan(3);
         break;
     }
-    default: return make_error_code(device_errc::sfc_error);
+    default: return make_error(device_errc::sfc_error);
     }
-    if (const device_errc e = check_request(r); e != device_errc{}) return make_error_code(e);
+    if (const device_errc e = check_request(r); e != device_errc{}) return make_error(e);
     return r;
 }
 
@@ -369,7 +368,7 @@ inline result<std::size_t> encode_error(const header& h, std::uint8_t sfc_code, 
 
 // The response in the MEMOBUS part of a response message to `sent`, checked in the order of
 // Yaskawa's sample (§2): MFC, SFC (an error response gives the controller's code as a
-// memobus::device_category() error), then the count and length. errc::unexpected_type for
+// memobus::device_domain error), then the count and length. errc::unexpected_type for
 // another MFC or SFC, errc::malformed for a length, count or echo that does not fit.
 inline result<response> parse_response(const request& sent, std::span<const std::uint8_t> body,
                                        data_order order = data_order::big_endian) noexcept {
@@ -378,7 +377,7 @@ inline result<response> parse_response(const request& sent, std::span<const std:
     const auto f = static_cast<std::uint8_t>(sent.function);
     if (body[3] == (f | error_flag)) {
         if (body.size() != length_size + 4 || body[5] == 0) return errc::malformed;
-        return std::error_code(body[5], device_category());
+        return make_device_error(body[5]);
     }
     if (body[3] != f) return errc::unexpected_type;
     response r;

@@ -9,7 +9,6 @@
 #include <array>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/byte_stream.hpp"
 #include "ferrule/core/driver.hpp"
@@ -23,17 +22,17 @@ namespace ferrule::modbus {
 
 namespace detail {
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code transact(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                         const request& r) {
+ferrule::error transact(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                        const request& r) {
     if (auto ec = c.start(unit, r)) return ec;
-    const std::error_code ec = run(stream, c);
+    const ferrule::error ec = run(stream, c);
     if (ec == errc::no_response_expected) return {};
     return ec;
 }
 
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code read_bits(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit, function fc,
-                          std::uint16_t address, std::span<bool> out) {
+ferrule::error read_bits(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit, function fc,
+                         std::uint16_t address, std::span<bool> out) {
     if (out.size() > max_read_bits) return errc::invalid_argument;
     request r;
     r.function = fc;
@@ -46,8 +45,8 @@ std::error_code read_bits(S& stream, basic_client<L, F, Latch>& c, std::uint8_t 
 }
 
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code read_regs(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit, function fc,
-                          std::uint16_t address, std::span<std::uint16_t> out) {
+ferrule::error read_regs(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit, function fc,
+                         std::uint16_t address, std::span<std::uint16_t> out) {
     if (out.size() > max_read_registers) return errc::invalid_argument;
     request r;
     r.function = fc;
@@ -61,36 +60,36 @@ std::error_code read_regs(S& stream, basic_client<L, F, Latch>& c, std::uint8_t 
 
 // FC 1 (AP §6.1): out.size() coils from `address`.
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code read_coils(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                           std::uint16_t address, std::span<bool> out) {
+ferrule::error read_coils(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                          std::uint16_t address, std::span<bool> out) {
     return detail::read_bits(stream, c, unit, function::read_coils, address, out);
 }
 
 // FC 2 (AP §6.2).
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code read_discrete_inputs(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                                     std::uint16_t address, std::span<bool> out) {
+ferrule::error read_discrete_inputs(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                                    std::uint16_t address, std::span<bool> out) {
     return detail::read_bits(stream, c, unit, function::read_discrete_inputs, address, out);
 }
 
 // FC 3 (AP §6.3): out.size() registers from `address`.
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code read_holding_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                                       std::uint16_t address, std::span<std::uint16_t> out) {
+ferrule::error read_holding_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                                      std::uint16_t address, std::span<std::uint16_t> out) {
     return detail::read_regs(stream, c, unit, function::read_holding_registers, address, out);
 }
 
 // FC 4 (AP §6.4).
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code read_input_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                                     std::uint16_t address, std::span<std::uint16_t> out) {
+ferrule::error read_input_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                                    std::uint16_t address, std::span<std::uint16_t> out) {
     return detail::read_regs(stream, c, unit, function::read_input_registers, address, out);
 }
 
 // FC 5 (AP §6.5).
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code write_coil(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                           std::uint16_t address, bool on) {
+ferrule::error write_coil(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                          std::uint16_t address, bool on) {
     request r;
     r.function = function::write_single_coil;
     r.address = address;
@@ -100,8 +99,8 @@ std::error_code write_coil(S& stream, basic_client<L, F, Latch>& c, std::uint8_t
 
 // FC 6 (AP §6.6).
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code write_register(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                               std::uint16_t address, std::uint16_t value) {
+ferrule::error write_register(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                              std::uint16_t address, std::uint16_t value) {
     request r;
     r.function = function::write_single_register;
     r.address = address;
@@ -111,8 +110,8 @@ std::error_code write_register(S& stream, basic_client<L, F, Latch>& c, std::uin
 
 // FC 15 (AP §6.11): values.size() coils from `address`.
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code write_coils(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                            std::uint16_t address, std::span<const bool> values) {
+ferrule::error write_coils(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                           std::uint16_t address, std::span<const bool> values) {
     if (values.size() > max_write_bits) return errc::invalid_argument;
     std::array<std::uint8_t, packed_size(max_write_bits)> packed{};
     for (std::size_t i = 0; i < values.size(); ++i)
@@ -127,8 +126,8 @@ std::error_code write_coils(S& stream, basic_client<L, F, Latch>& c, std::uint8_
 
 // FC 16 (AP §6.12): values.size() registers from `address`.
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code write_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                                std::uint16_t address, std::span<const std::uint16_t> values) {
+ferrule::error write_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                               std::uint16_t address, std::span<const std::uint16_t> values) {
     if (values.size() > max_write_registers) return errc::invalid_argument;
     std::array<std::uint8_t, 2 * max_write_registers> bytes{};
     for (std::size_t i = 0; i < values.size(); ++i) put_register(bytes, i, values[i]);
@@ -143,10 +142,10 @@ std::error_code write_registers(S& stream, basic_client<L, F, Latch>& c, std::ui
 // FC 23 (AP §6.17): writes `values` at `write_address`, then reads read_out.size()
 // registers from `read_address` (the server writes first).
 template <session_stream S, link_mode L, function_set F, class Latch>
-std::error_code read_write_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
-                                     std::uint16_t read_address, std::span<std::uint16_t> read_out,
-                                     std::uint16_t write_address,
-                                     std::span<const std::uint16_t> values) {
+ferrule::error read_write_registers(S& stream, basic_client<L, F, Latch>& c, std::uint8_t unit,
+                                    std::uint16_t read_address, std::span<std::uint16_t> read_out,
+                                    std::uint16_t write_address,
+                                    std::span<const std::uint16_t> values) {
     if (read_out.size() > max_read_registers || values.size() > max_rw_write_registers)
         return errc::invalid_argument;
     std::array<std::uint8_t, 2 * max_rw_write_registers> bytes{};

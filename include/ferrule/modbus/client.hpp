@@ -41,7 +41,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 #include <type_traits>
 
 #include "ferrule/core/error.hpp"
@@ -105,7 +104,7 @@ public:
     // Starts a transaction with `unit`. RTU: 1…247, or 0 (broadcast) for FC 5, 6, 15, 16.
     // TCP: any unit id. invalid_argument for a request encode_request() refuses.
     // Out of line: an application starts requests in many places, each would carry a copy.
-    [[gnu::noinline]] std::error_code start(std::uint8_t unit, const request& r) noexcept {
+    [[gnu::noinline]] ferrule::error start(std::uint8_t unit, const request& r) noexcept {
         if (busy()) return errc::busy;
         if (latch_.fault_latched()) return errc::fault_latched;
         if (rtu() && unit > max_unit_address) return errc::invalid_argument;
@@ -182,7 +181,7 @@ public:
         stats_.stale_bytes += static_cast<std::uint32_t>(in.size() - used);
     }
 
-    void on_transport_error(std::error_code ec) noexcept {
+    void on_transport_error(ferrule::error ec) noexcept {
         if (!busy()) return;
         ++stats_.failed;
         finish(ec);
@@ -190,9 +189,9 @@ public:
 
     // Outcome of the finished transaction: empty on success; errc::no_response_expected for
     // a broadcast; otherwise the cause of the last failed attempt, a ferrule::errc or a
-    // modbus::device_category() exception code.
-    std::error_code error() const noexcept { return error_; }
-    // !error(), without making a std::error_code (firmware that only tells success from
+    // modbus::device_domain exception code.
+    ferrule::error error() const noexcept { return error_; }
+    // !error(), without making a ferrule::error (firmware that only tells success from
     // failure saves the conversion at each call).
     bool succeeded() const noexcept { return !error_; }
     // The response of a successful transaction; its data spans the session's buffer, valid
@@ -376,7 +375,7 @@ private:
             latch_.retry(attempts_, cfg_.retries, cfg_.fault_threshold, false);
             ++stats_.exceptions;
             ++stats_.failed;
-            finish(stored_error(pdu[1], device_category()));
+            finish(make_device_error(pdu[1]));
             return;
         }
         latch_.succeeded();
@@ -403,7 +402,7 @@ private:
 
     bool garbled() const noexcept { return decode_error_ != errc{}; }
 
-    void finish(stored_error ec) noexcept {
+    void finish(ferrule::error ec) noexcept {
         error_ = ec;
         state_ = state::done;
     }
@@ -430,7 +429,7 @@ private:
     time_point tx_end_{};
     time_point last_rx_ = time_point::min(); // or the end of our request
     time_point deadline_{};                  // of the attempt (rearm()) or of the turnaround
-    stored_error error_{};
+    ferrule::error error_{};
     errc decode_error_{};      // garbage or a bad CRC in this attempt (the decoders report errc)
     std::size_t echo_pos_ = 0; // bytes of our echo matched so far
     unsigned attempts_ = 0;

@@ -1,10 +1,11 @@
-// Modbus exception responses (AP §7) as std::error_code values of modbus::device_category(),
+// Modbus exception responses (AP §7) as ferrule::error values of modbus::device_domain,
 // so callers can tell a server's refusal from a transport error (ferrule::errc: timeout = no
 // reply, bad_checksum = CRC error). The value is the exception code as the server sent it.
 #pragma once
 
-#include <system_error> // std::string of message(): the category interface needs it
+#include <cstdint>
 
+#include "ferrule/core/error.hpp"
 #include "ferrule/modbus/constants.hpp"
 
 namespace ferrule::modbus {
@@ -13,12 +14,8 @@ namespace ferrule::modbus {
 // (AP §7), whose values are the bytes a server sends, so the wire and the error are one enum.
 using device_errc = exception_code;
 
-class device_category_t final : public std::error_category {
-public:
-    const char* name() const noexcept override { return "modbus"; }
-    std::string message(int ev) const override { return describe(ev); }
-
-    static const char* describe(int ev) noexcept {
+struct device_domain_t {
+    static constexpr const char* message(int ev) noexcept {
         switch (static_cast<device_errc>(ev)) {
         case device_errc::illegal_function:
             return "illegal function: the server does not support this function code";
@@ -41,16 +38,30 @@ public:
     }
 };
 
-inline const std::error_category& device_category() noexcept {
-    static const device_category_t instance;
-    return instance;
+inline constexpr error_domain device_domain{"modbus", &device_domain_t::message};
+
+constexpr error make_error(device_errc e) noexcept {
+    return {static_cast<int>(e), device_domain};
 }
 
+// The error for the exception code of an exception response (AP §7). No code is 0, and an
+// error of value 0 would read as "no error": a 0 there makes the reply malformed.
+constexpr error make_device_error(std::uint8_t code) noexcept {
+    if (code == 0) return errc::malformed;
+    return {code, device_domain};
+}
+
+// Host bridge: device_domain's std::error_category.
+inline const std::error_category& device_category() {
+    return category_of(device_domain);
+}
 inline std::error_code make_error_code(device_errc e) noexcept {
-    return {static_cast<int>(e), device_category()};
+    return make_error(e);
 }
 
 } // namespace ferrule::modbus
 
+template <>
+struct ferrule::is_error_enum<ferrule::modbus::device_errc> : std::true_type {};
 template <>
 struct std::is_error_code_enum<ferrule::modbus::device_errc> : std::true_type {};

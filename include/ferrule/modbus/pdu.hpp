@@ -24,7 +24,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/bytes.hpp"
 #include "ferrule/core/error.hpp"
@@ -485,26 +484,26 @@ constexpr errc check_response(std::span<const std::uint8_t> q, std::span<const s
 } // namespace detail
 
 // The response PDU `pdu` to `sent`. An exception response gives the server's code as a
-// modbus::device_category() error; another function code errc::unexpected_type; a wrong
+// modbus::device_domain error; another function code errc::unexpected_type; a wrong
 // length, byte count or echo errc::malformed; a request that encode_request<Fs>() refuses
 // (a function not in `Fs` among them) errc::invalid_argument.
 // This form fills `r` and returns the error (empty on success; `r` is then not to be used).
 template <function_set Fs = all_functions>
-std::error_code parse_response(const request& sent, std::span<const std::uint8_t> pdu,
-                               response& r) noexcept {
+ferrule::error parse_response(const request& sent, std::span<const std::uint8_t> pdu,
+                              response& r) noexcept {
     std::array<std::uint8_t, max_pdu> q;
     const auto n = encode_request<Fs>(sent, q);
     if (!n) return errc::invalid_argument;
     const errc e = detail::check_response<Fs>(std::span<const std::uint8_t>(q.data(), *n), pdu, r);
     if (e != errc{}) return e;
-    if (pdu[0] & exception_flag) return std::error_code(pdu[1], device_category());
+    if (pdu[0] & exception_flag) return make_device_error(pdu[1]);
     return {};
 }
 
 template <function_set Fs = all_functions>
 result<response> parse_response(const request& sent, std::span<const std::uint8_t> pdu) noexcept {
     response r;
-    if (const std::error_code ec = parse_response<Fs>(sent, pdu, r)) return ec;
+    if (const ferrule::error ec = parse_response<Fs>(sent, pdu, r)) return ec;
     return r;
 }
 

@@ -55,9 +55,9 @@ result<std::uint32_t> read_parameter(S& stream, master& m, std::uint8_t address,
 // `persistent` selects the EEPROM write (0x2): SC01 p.31 warns against it for frequent
 // writes, so the default is the volatile (RAM) write.
 template <session_stream S>
-std::error_code write_parameter(S& stream, master& m, std::uint8_t address, std::uint16_t index,
-                                std::uint32_t value, bool persistent = false,
-                                std::uint8_t subindex = 0) {
+ferrule::error write_parameter(S& stream, master& m, std::uint8_t address, std::uint16_t index,
+                               std::uint32_t value, bool persistent = false,
+                               std::uint8_t subindex = 0) {
     const auto r =
         parameter(stream, m, address, persistent ? service::write : service::write_volatile, index,
                   value, subindex);

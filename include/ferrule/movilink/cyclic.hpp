@@ -8,7 +8,6 @@
 #include <array>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/session.hpp"
 #include "ferrule/movilink/master.hpp"
@@ -40,13 +39,13 @@ public:
         return true;
     }
     bool parameter_done() const noexcept { return param_state_ == param_state::finished; }
-    std::error_code parameter_error() const noexcept { return param_error_; }
+    ferrule::error parameter_error() const noexcept { return param_error_; }
     std::uint32_t parameter_value() const noexcept { return param_value_; }
 
     std::uint32_t cycles() const noexcept { return cycles_; }
     std::uint32_t failed_cycles() const noexcept { return failed_; }
     // Outcome of the last finished cycle.
-    std::error_code error() const noexcept { return last_error_; }
+    ferrule::error error() const noexcept { return last_error_; }
 
     // --- master_session ----------------------------------------------------------------
     session_action next(time_point now) noexcept {
@@ -69,12 +68,12 @@ public:
         m_.on_receive(in, now);
     }
     // The cycle ends with `ec`; error() says so once it is counted, at the next next().
-    void on_transport_error(std::error_code ec) noexcept { m_.on_transport_error(ec); }
+    void on_transport_error(ferrule::error ec) noexcept { m_.on_transport_error(ec); }
 
 private:
     enum class param_state : std::uint8_t { none, queued, running, finished };
 
-    std::error_code start() noexcept {
+    ferrule::error start() noexcept {
         const std::span<const std::uint16_t> po(po_.data(), words_);
         if (param_state_ == param_state::queued) {
             param_state_ = param_state::running;
@@ -107,11 +106,11 @@ private:
     std::array<std::uint16_t, max_pd_words> pi_{};
     param_channel param_req_{};
     param_state param_state_ = param_state::none;
-    stored_error param_error_{};
+    ferrule::error param_error_{};
     std::uint32_t param_value_ = 0;
     std::uint32_t cycles_ = 0;
     std::uint32_t failed_ = 0;
-    stored_error last_error_{};
+    ferrule::error last_error_{};
 };
 
 } // namespace ferrule::movilink

@@ -1,12 +1,12 @@
 // Device errors reported in the MOVILINK parameter channel (status bit set), kept as a
-// std::error_code whose value packs class, code and additional code so nothing the drive
+// ferrule::error whose value packs class, code and additional code so nothing the drive
 // said is lost. Texts: SC01 §6.2 p.65-66 (MOVIDRIVE) and MTB "additional codes" (MOVITRAC B).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
-#include <string>
-#include <system_error>
 
+#include "ferrule/core/error.hpp"
 #include "ferrule/movilink/param.hpp"
 
 namespace ferrule::movilink {
@@ -23,7 +23,7 @@ enum class error_class : std::uint8_t {
     other = 8, // drive return codes: see the additional code
 };
 
-// The drive's error reply as an error_code enum. Its value is the parameter channel's data
+// The drive's error reply as an error enum. Its value is the parameter channel's data
 // word, class << 24 | code << 16 | additional code, so any reply keeps all the drive said;
 // named here: class 8 ("other") code 0 with the additional codes of SC01 p.66 (MTB for
 // 0x1F-0x29), and the special return codes of classes 5 and 6 (SC01 p.46).
@@ -56,7 +56,7 @@ enum class device_errc : std::uint32_t {
     data_length = error_data(6, 8, 0),            // data length is not 4 bytes
 };
 
-inline const char* error_class_text(std::uint8_t c) noexcept {
+constexpr const char* error_class_text(std::uint8_t c) noexcept {
     switch (c) {
     case 1: return "vfd state";
     case 2: return "application reference";
@@ -70,7 +70,7 @@ inline const char* error_class_text(std::uint8_t c) noexcept {
     return "unknown class";
 }
 
-inline const char* additional_code_text(std::uint16_t a) noexcept {
+constexpr const char* additional_code_text(std::uint16_t a) noexcept {
     switch (a) {
     case 0x00: return "no error";
     case 0x10: return "invalid parameter index";
@@ -101,54 +101,11 @@ inline const char* additional_code_text(std::uint16_t a) noexcept {
 }
 
 // Special return codes of class 5 / 6 (SC01 p.46; MOVI-PLC manual p.61).
-inline const char* special_code_text(std::uint8_t cls, std::uint8_t code) noexcept {
+constexpr const char* special_code_text(std::uint8_t cls, std::uint8_t code) noexcept {
     if (cls == 5 && code == 5) return "illegal service code in the management byte";
     if (cls == 6 && code == 8) return "data length is not 4 bytes";
     if (cls == 6 && code == 2) return "internal communication error: repeat the service";
     return nullptr;
-}
-
-class device_category_t final : public std::error_category {
-public:
-    const char* name() const noexcept override { return "movilink"; }
-    std::string message(int ev) const override {
-        const auto v = static_cast<std::uint32_t>(ev);
-        const auto cls = static_cast<std::uint8_t>(v >> 24);
-        const auto code = static_cast<std::uint8_t>(v >> 16);
-        const auto add = static_cast<std::uint16_t>(v);
-        const char* special = add == 0 ? special_code_text(cls, code) : nullptr;
-        // Built without snprintf, which would pull printf into firmware.
-        std::string m = "drive error class " + std::to_string(cls);
-        m += " (";
-        m += error_class_text(cls);
-        m += "), code ";
-        m += std::to_string(code);
-        m += ", additional code 0x";
-        for (int shift = 12; shift >= 0; shift -= 4) m += "0123456789ABCDEF"[(add >> shift) & 0xFu];
-        m += ": ";
-        m += special ? special : additional_code_text(add);
-        return m;
-    }
-};
-
-inline const std::error_category& device_category() noexcept {
-    static const device_category_t instance;
-    return instance;
-}
-
-inline std::error_code make_error_code(device_errc e) noexcept {
-    return {static_cast<int>(e), device_category()};
-}
-
-// The error_code for a parameter channel with the status bit set. The value is the
-// channel's data word (class << 24 | code << 16 | additional), so it round-trips.
-inline std::error_code make_device_error(std::uint32_t error_data_word) noexcept {
-    // A data word of 0 would read as "no error"; class 0 is not defined, keep it visible.
-    return make_error_code(
-        static_cast<device_errc>(error_data_word == 0 ? 0x80000000u : error_data_word));
-}
-inline std::error_code make_device_error(const param_channel& p) noexcept {
-    return make_device_error(p.data);
 }
 
 struct device_error_fields {
@@ -156,13 +113,64 @@ struct device_error_fields {
     std::uint8_t code;
     std::uint16_t additional;
 };
-inline device_error_fields fields_of(std::error_code ec) noexcept {
-    const auto v = static_cast<std::uint32_t>(ec.value());
+constexpr device_error_fields fields_of(int value) noexcept {
+    const auto v = static_cast<std::uint32_t>(value);
     return {static_cast<std::uint8_t>(v >> 24), static_cast<std::uint8_t>(v >> 16),
             static_cast<std::uint16_t>(v)};
 }
 
+struct device_domain_t {
+    // The meaning of the additional code, or of a special return code of class 5 / 6.
+    static constexpr const char* message(int ev) noexcept {
+        const device_error_fields f = fields_of(ev);
+        const char* special =
+            f.additional == 0 ? special_code_text(f.error_class, f.code) : nullptr;
+        return special ? special : additional_code_text(f.additional);
+    }
+    // "drive error class C (class text), code N, additional code 0xAAAA: meaning".
+    static std::size_t format(int ev, char* buf, std::size_t size) noexcept {
+        const device_error_fields f = fields_of(ev);
+        ferrule::detail::text_writer w(buf, size);
+        w.put("drive error class ").put_decimal(f.error_class);
+        w.put(" (").put(error_class_text(f.error_class)).put("), code ").put_decimal(f.code);
+        w.put(", additional code 0x").put_hex(f.additional, 4).put(": ").put(message(ev));
+        return w.size();
+    }
+};
+
+inline constexpr error_domain device_domain{"movilink", &device_domain_t::message,
+                                            &device_domain_t::format};
+
+constexpr error make_error(device_errc e) noexcept {
+    return {static_cast<int>(e), device_domain};
+}
+
+// The error for a parameter channel with the status bit set. The value is the
+// channel's data word (class << 24 | code << 16 | additional), so it round-trips.
+constexpr error make_device_error(std::uint32_t error_data_word) noexcept {
+    // A data word of 0 would read as "no error"; class 0 is not defined, keep it visible.
+    return make_error(
+        static_cast<device_errc>(error_data_word == 0 ? 0x80000000u : error_data_word));
+}
+constexpr error make_device_error(const param_channel& p) noexcept {
+    return make_device_error(p.data);
+}
+
+constexpr device_error_fields fields_of(error e) noexcept {
+    return fields_of(e.value());
+}
+
+// Host bridge: device_domain's std::error_category.
+inline const std::error_category& device_category() {
+    return category_of(device_domain);
+}
+inline std::error_code make_error_code(device_errc e) noexcept {
+    return make_error(e);
+}
+
 } // namespace ferrule::movilink
 
+template <>
+struct ferrule::is_error_enum<ferrule::movilink::device_errc> : std::true_type {};
 template <>
 struct std::is_error_code_enum<ferrule::movilink::device_errc> : std::true_type {};

@@ -117,7 +117,7 @@ public:
     struct step {
         std::size_t consumed = 0;
         decoder::status what = status::need_more;
-        std::error_code ec{};
+        ferrule::error ec{};
     };
 
     explicit constexpr decoder(accept which = accept::both) noexcept : accept_(which) {}
@@ -194,7 +194,7 @@ private:
         size_ = 0;
         state_ = state::skip;
         s.what = status::error;
-        s.ec = make_error_code(e);
+        s.ec = make_error(e);
         return s;
     }
 

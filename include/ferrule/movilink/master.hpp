@@ -16,7 +16,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/fault_latch.hpp"
@@ -60,8 +59,8 @@ public:
 
     // Process data only: PO words out, PI words back. `po` holds pd_words(type) words.
     // A PARAM+nPD type is allowed; its parameter channel then carries "no service".
-    std::error_code start_exchange(std::uint8_t address, pdu_type type,
-                                   std::span<const std::uint16_t> po) noexcept {
+    ferrule::error start_exchange(std::uint8_t address, pdu_type type,
+                                  std::span<const std::uint16_t> po) noexcept {
         if (!has_param(type) && po.size() != pd_words(type)) return errc::invalid_argument;
         param_channel idle_channel{};
         idle_channel.set_handshake(handshake_of(address));
@@ -70,8 +69,8 @@ public:
 
     // A parameter service (read, write, read min/max/default/scale/attribute). `type`
     // must carry a parameter channel; its PO words (if any) come from `po`.
-    std::error_code start_parameter(std::uint8_t address, pdu_type type, param_channel request,
-                                    std::span<const std::uint16_t> po = {}) noexcept {
+    ferrule::error start_parameter(std::uint8_t address, pdu_type type, param_channel request,
+                                   std::span<const std::uint16_t> po = {}) noexcept {
         if (!has_param(type)) return errc::invalid_argument;
         return start(address, type, request, po, true);
     }
@@ -130,15 +129,15 @@ public:
         }
     }
 
-    void on_transport_error(std::error_code ec) noexcept {
+    void on_transport_error(ferrule::error ec) noexcept {
         if (!busy()) return;
         ++stats_.failed;
         finish(ec);
     }
 
     // Outcome of the finished transaction: empty on success; errc::no_response_expected
-    // for group / broadcast; a ferrule::errc or a movilink::device_category() code.
-    std::error_code error() const noexcept { return error_; }
+    // for group / broadcast; a ferrule::errc or a movilink::device_domain code.
+    ferrule::error error() const noexcept { return error_; }
     // The finished transaction succeeded: error() is empty.
     bool succeeded() const noexcept { return !error_; }
     // The drive's reply (valid when error() is empty).
@@ -166,8 +165,8 @@ public:
 private:
     enum class state : std::uint8_t { idle, pending_send, awaiting_reply, done };
 
-    std::error_code start(std::uint8_t address, pdu_type type, param_channel param,
-                          std::span<const std::uint16_t> po, bool param_job) noexcept {
+    ferrule::error start(std::uint8_t address, pdu_type type, param_channel param,
+                         std::span<const std::uint16_t> po, bool param_job) noexcept {
         if (busy()) return errc::busy;
         if (latch_.fault_latched()) return errc::fault_latched;
         const auto kind = kind_of(address);
@@ -267,10 +266,10 @@ private:
         finish({});
     }
 
-    void fail_attempt(std::error_code ec, bool may_retry = true) noexcept {
+    void fail_attempt(ferrule::error ec, bool may_retry = true) noexcept {
         if (ec == errc::timeout)
             ++stats_.timeouts;
-        else if (ec.category() != device_category())
+        else if (ec.domain() != &device_domain)
             ++stats_.invalid_replies;
         if (latch_.retry(attempts_, cfg_.retries, cfg_.fault_threshold, may_retry)) {
             handshake_polling_ = false;
@@ -282,7 +281,7 @@ private:
         finish(ec);
     }
 
-    void finish(std::error_code ec) noexcept {
+    void finish(ferrule::error ec) noexcept {
         error_ = ec;
         state_ = state::done;
     }
@@ -310,7 +309,7 @@ private:
     time_point last_activity_{};
     time_point tx_end_{};
     duration pause_ = movilink::start_pause;
-    stored_error error_{};
+    ferrule::error error_{};
     unsigned attempts_ = 0;
     unsigned handshake_polls_ = 0;
     fault_latch latch_{};

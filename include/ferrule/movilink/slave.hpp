@@ -18,7 +18,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/queued_reply.hpp"
@@ -122,7 +121,7 @@ public:
     // Queues the reply to the pending request: SD2, the request's TYP, and its ADR (for a
     // point-to-point request also this unit's own address). Refused with
     // errc::no_response_expected for group / broadcast requests: consume() those.
-    std::error_code respond(const telegram& reply) noexcept {
+    ferrule::error respond(const telegram& reply) noexcept {
         if (!request_pending_) return errc::invalid_argument;
         if (!response_expected()) return errc::no_response_expected;
         const bool own_address =

@@ -15,7 +15,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/session.hpp"
@@ -36,7 +35,7 @@ struct cycle_slave {
     // Kept by the cycle.
     bool exchanging = false;
     slave_diag diag{}; // the last diagnosis read (its extended part is not kept)
-    std::error_code last_error{};
+    ferrule::error last_error{};
     time_point retry_at{};
     std::uint32_t exchanges = 0;
     std::uint32_t failures = 0; // failed exchanges and bring-ups
@@ -73,9 +72,9 @@ public:
     void on_receive(std::span<const std::uint8_t> in, time_point now) noexcept {
         m_.on_receive(in, now);
     }
-    void on_transport_error(std::error_code ec) noexcept { m_.on_transport_error(ec); }
+    void on_transport_error(ferrule::error ec) noexcept { m_.on_transport_error(ec); }
     // Outcome of the last finished transaction.
-    std::error_code error() const noexcept { return last_error_; }
+    ferrule::error error() const noexcept { return last_error_; }
 
 private:
     // What the slave under the cursor does next; `enter`: the cursor has just reached it.
@@ -124,7 +123,7 @@ private:
         return true;
     }
 
-    std::error_code begin_step() noexcept {
+    ferrule::error begin_step() noexcept {
         const cycle_slave& s = current();
         switch (step_) {
         case step::fdl_status: return m_.start_fdl_status(s.address);
@@ -141,7 +140,7 @@ private:
 
     void harvest(time_point now) noexcept {
         last_error_ = m_.error();
-        const std::error_code ec = last_error_;
+        const ferrule::error ec = last_error_;
         switch (step_) {
         case step::fdl_status: return then(ec, step::first_diag, now);
         case step::first_diag: return then(ec, step::set_prm, now);
@@ -156,13 +155,13 @@ private:
     }
 
     // A start-up step done: on to `next`, or the bring-up has failed.
-    void then(std::error_code ec, step next, time_point now) noexcept {
+    void then(ferrule::error ec, step next, time_point now) noexcept {
         m_.clear();
         if (ec) return bring_up_failed(ec, now);
         step_ = next;
     }
 
-    void ready_polled(std::error_code ec, time_point now) noexcept {
+    void ready_polled(ferrule::error ec, time_point now) noexcept {
         const slave_diag d = m_.diag();
         m_.clear();
         if (ec) return bring_up_failed(ec, now);
@@ -175,7 +174,7 @@ private:
         step_ = step::exchange; // exchanged in this pass, as soon as it is ready
     }
 
-    void exchanged(std::error_code ec, time_point now) noexcept {
+    void exchanged(ferrule::error ec, time_point now) noexcept {
         cycle_slave& s = current();
         const auto in = m_.reply();
         if (!ec && in.size() != s.inputs.size()) ec = errc::malformed;
@@ -199,7 +198,7 @@ private:
         advance();
     }
 
-    void diagnosis_read(std::error_code ec, time_point now) noexcept {
+    void diagnosis_read(ferrule::error ec, time_point now) noexcept {
         cycle_slave& s = current();
         const slave_diag d = m_.diag();
         m_.clear();
@@ -217,7 +216,7 @@ private:
         advance();
     }
 
-    void bring_up_failed(std::error_code ec, time_point now) noexcept {
+    void bring_up_failed(ferrule::error ec, time_point now) noexcept {
         cycle_slave& s = current();
         ++s.failures;
         s.last_error = ec;
@@ -259,7 +258,7 @@ private:
     std::size_t pass_exchanges_ = 0;
     std::size_t last_pass_exchanges_ = 0;
     std::uint32_t passes_ = 0;
-    stored_error last_error_{};
+    ferrule::error last_error_{};
 };
 
 static_assert(master_session<cycle>);

@@ -1,13 +1,12 @@
-// What a DP slave answers instead of data, as std::error_code values of
-// profibus::device_category(), so callers can tell a slave's refusal from a transport error
+// What a DP slave answers instead of data, as ferrule::error values of
+// profibus::device_domain, so callers can tell a slave's refusal from a transport error
 // (ferrule::errc: timeout = no reply, bad_checksum = FCS error). Values:
 //   * the response function codes UE, RR, RS, NR (FC bits 3…0, §B.3) as the slave sent them;
 //   * the verdicts of a Slave_Diag after the start-up sequence of §B.6 (Prm_Fault, Cfg_Fault,
 //     locked to another master, still not ready), above the FC range.
 #pragma once
 
-#include <system_error> // std::string of message(): the category interface needs it
-
+#include "ferrule/core/error.hpp"
 #include "ferrule/profibus/constants.hpp"
 
 namespace ferrule::profibus {
@@ -25,12 +24,8 @@ enum class device_errc : int {
     master_lock = 0x103,
 };
 
-class device_category_t final : public std::error_category {
-public:
-    const char* name() const noexcept override { return "profibus"; }
-    std::string message(int ev) const override { return describe(ev); }
-
-    static const char* describe(int ev) noexcept {
+struct device_domain_t {
+    static constexpr const char* message(int ev) noexcept {
         switch (static_cast<device_errc>(ev)) {
         case device_errc::user_error: return "slave: user error (UE)";
         case device_errc::no_resource: return "slave: no resources for the request (RR)";
@@ -45,27 +40,34 @@ public:
     }
 };
 
-inline const std::error_category& device_category() noexcept {
-    static const device_category_t instance;
-    return instance;
+inline constexpr error_domain device_domain{"profibus", &device_domain_t::message};
+
+constexpr error make_error(device_errc e) noexcept {
+    return {static_cast<int>(e), device_domain};
 }
 
+// Host bridge: device_domain's std::error_category.
+inline const std::error_category& device_category() {
+    return category_of(device_domain);
+}
 inline std::error_code make_error_code(device_errc e) noexcept {
-    return {static_cast<int>(e), device_category()};
+    return make_error(e);
 }
 
 // The error a response function code stands for: UE, RR, RS and NR; empty for the others.
-inline std::error_code response_error(response_fn f) noexcept {
+constexpr error response_error(response_fn f) noexcept {
     switch (f) {
     case response_fn::user_error:
     case response_fn::no_resource:
     case response_fn::sap_not_active:
-    case response_fn::no_response_data: return {static_cast<int>(f), device_category()};
+    case response_fn::no_response_data: return {static_cast<int>(f), device_domain};
     default: return {};
     }
 }
 
 } // namespace ferrule::profibus
 
+template <>
+struct ferrule::is_error_enum<ferrule::profibus::device_errc> : std::true_type {};
 template <>
 struct std::is_error_code_enum<ferrule::profibus::device_errc> : std::true_type {};

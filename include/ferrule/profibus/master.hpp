@@ -38,7 +38,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/error.hpp"
 #include "ferrule/core/fault_latch.hpp"
@@ -107,37 +106,37 @@ public:
 
     // Each start returns errc::busy while a transaction runs, errc::invalid_argument for a
     // slave address outside 0…126 (or this master's), or a data unit that does not fit.
-    std::error_code start_fdl_status(std::uint8_t da) noexcept {
+    ferrule::error start_fdl_status(std::uint8_t da) noexcept {
         return begin(service::fdl_status, da, {});
     }
-    std::error_code start_slave_diag(std::uint8_t da) noexcept {
+    ferrule::error start_slave_diag(std::uint8_t da) noexcept {
         return begin(service::slave_diag, da, {});
     }
-    std::error_code start_set_prm(std::uint8_t da, const prm_data& p) noexcept {
+    ferrule::error start_set_prm(std::uint8_t da, const prm_data& p) noexcept {
         if (busy()) return errc::busy;
         const auto n = encode_prm(p, du_);
         if (!n) return n.error();
         return begin(service::set_prm, da, {du_.data(), *n});
     }
-    std::error_code start_chk_cfg(std::uint8_t da, std::span<const std::uint8_t> cfg) noexcept {
+    ferrule::error start_chk_cfg(std::uint8_t da, std::span<const std::uint8_t> cfg) noexcept {
         return begin(service::chk_cfg, da, cfg);
     }
-    std::error_code start_get_cfg(std::uint8_t da) noexcept {
+    ferrule::error start_get_cfg(std::uint8_t da) noexcept {
         return begin(service::get_cfg, da, {});
     }
-    std::error_code start_read_inputs(std::uint8_t da) noexcept {
+    ferrule::error start_read_inputs(std::uint8_t da) noexcept {
         return begin(service::read_inputs, da, {});
     }
-    std::error_code start_read_outputs(std::uint8_t da) noexcept {
+    ferrule::error start_read_outputs(std::uint8_t da) noexcept {
         return begin(service::read_outputs, da, {});
     }
-    std::error_code start_data_exchange(std::uint8_t da,
-                                        std::span<const std::uint8_t> outputs) noexcept {
+    ferrule::error start_data_exchange(std::uint8_t da,
+                                       std::span<const std::uint8_t> outputs) noexcept {
         return begin(service::data_exchange, da, outputs);
     }
     // DA 127 reaches every slave; the group bits of `gc` select among them (§B.5).
-    std::error_code start_global_control(const global_control& gc,
-                                         std::uint8_t da = broadcast_address) noexcept {
+    ferrule::error start_global_control(const global_control& gc,
+                                        std::uint8_t da = broadcast_address) noexcept {
         const std::array<std::uint8_t, 2> du{gc.command, gc.group};
         return begin(service::global_control, da, du);
     }
@@ -188,7 +187,7 @@ public:
         } while (s.what != fdl_decoder::status::need_more && state_ == state::awaiting);
     }
 
-    void on_transport_error(std::error_code ec) noexcept {
+    void on_transport_error(ferrule::error ec) noexcept {
         if (!busy()) return;
         ++stats_.failed;
         reset_fcb(da_);
@@ -197,8 +196,8 @@ public:
 
     // Outcome of the finished transaction: empty on success; errc::no_response_expected for
     // Global_Control; otherwise the cause of the last failed attempt, a ferrule::errc or a
-    // profibus::device_category() error.
-    std::error_code error() const noexcept { return error_; }
+    // profibus::device_domain error.
+    ferrule::error error() const noexcept { return error_; }
     // The finished transaction succeeded: error() is empty.
     bool succeeded() const noexcept { return !error_; }
     // The data unit (SAP bytes excluded) of the last successful reply: diagnosis, cfg bytes,
@@ -255,8 +254,8 @@ private:
         return no_sap;
     }
 
-    std::error_code begin(profibus::service s, std::uint8_t da,
-                          std::span<const std::uint8_t> du) noexcept {
+    ferrule::error begin(profibus::service s, std::uint8_t da,
+                         std::span<const std::uint8_t> du) noexcept {
         if (busy()) return errc::busy;
         if (latch_.fault_latched()) return errc::fault_latched;
         const bool sdn = s == service::global_control;
@@ -365,7 +364,7 @@ private:
             return;
         }
         const auto fn = static_cast<profibus::response_fn>(t.function());
-        if (const std::error_code ec = response_error(fn)) {
+        if (const ferrule::error ec = response_error(fn)) {
             response_fn_ = fn;
             fail(ec, false);
             return;
@@ -418,14 +417,14 @@ private:
         finish({});
     }
 
-    void fail(std::error_code ec, bool may_retry) noexcept {
+    void fail(ferrule::error ec, bool may_retry) noexcept {
         if (ec == errc::timeout)
             ++stats_.timeouts;
         else if (ec == errc::bad_checksum)
             ++stats_.bad_checksums;
         else if (ec == errc::unexpected_address)
             ++stats_.unexpected_addresses;
-        else if (ec.category() == device_category())
+        else if (ec.domain() == &device_domain)
             ++stats_.device_errors;
         else
             ++stats_.malformed;
@@ -439,7 +438,7 @@ private:
         finish(ec);
     }
 
-    void finish(std::error_code ec) noexcept {
+    void finish(ferrule::error ec) noexcept {
         error_ = ec;
         state_ = state::done;
     }
@@ -464,8 +463,8 @@ private:
     time_point send_after_ = time_point::min();
     time_point tx_end_{};
     time_point last_rx_{};
-    stored_error error_{};
-    stored_error decode_error_{}; // garbage or an FCS error in this attempt
+    ferrule::error error_{};
+    ferrule::error decode_error_{}; // garbage or an FCS error in this attempt
     unsigned attempts_ = 0;
     fault_latch latch_{};
     std::uint8_t da_ = 0;

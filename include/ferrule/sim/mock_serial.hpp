@@ -15,7 +15,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <system_error>
 
 #include "ferrule/core/byte_stream.hpp"
 #include "ferrule/core/error.hpp"
@@ -65,7 +64,7 @@ public:
     time_point now() const noexcept { return now_; }
 
     io_result write(std::span<const std::uint8_t> out) {
-        if (const std::error_code ec = count_operation()) return {0, ec};
+        if (const ferrule::error ec = count_operation()) return {0, ec};
         process_wakes(now_);
         if (rx_line_free_ > now_) ++collisions_;
         const time_point start = now_;
@@ -79,7 +78,7 @@ public:
     }
 
     io_result read_some(std::span<std::uint8_t> in, time_point deadline) {
-        if (const std::error_code ec = count_operation()) return {0, ec};
+        if (const ferrule::error ec = count_operation()) return {0, ec};
         if (in.empty()) return {0, {}};
         for (;;) {
             process_wakes(now_);
@@ -92,12 +91,12 @@ public:
                 }
                 return {n, {}};
             }
-            if (closed_ && rx_size_ == 0) return {0, make_error_code(errc::transport)};
+            if (closed_ && rx_size_ == 0) return {0, errc::transport};
             time_point next = rx_size_ > 0 ? rx_[rx_head_].arrival : never;
             if (peer_ && !closed_) next = std::min(next, peer_->wake_at());
             if (next > deadline) {
                 if (deadline > now_) now_ = deadline;
-                return {0, make_error_code(errc::timeout)};
+                return {0, errc::timeout};
             }
             if (next > now_) now_ = next;
         }
@@ -146,7 +145,7 @@ public:
     // and does nothing else: no byte leaves or is taken, the clock stays. The operations
     // after it run normally; 0 fails none. Like Beast's test::stream fail_count, so a test
     // can count a transaction's operations (io_operations()) and fail each one in turn.
-    void fail_at(std::size_t n, std::error_code ec = make_error_code(errc::transport)) noexcept {
+    void fail_at(std::size_t n, ferrule::error ec = errc::transport) noexcept {
         fail_countdown_ = n;
         fail_ec_ = ec;
     }
@@ -179,7 +178,7 @@ private:
         std::uint8_t value;
     };
 
-    std::error_code count_operation() noexcept {
+    ferrule::error count_operation() noexcept {
         ++operations_;
         if (fail_countdown_ == 0 || --fail_countdown_ > 0) return {};
         return fail_ec_;
@@ -216,7 +215,7 @@ private:
     std::size_t read_size_ = 0;
     std::size_t operations_ = 0;
     std::size_t fail_countdown_ = 0;
-    std::error_code fail_ec_{};
+    ferrule::error fail_ec_{};
     bool closed_ = false;
 };
 

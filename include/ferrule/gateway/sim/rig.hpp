@@ -99,7 +99,7 @@ private:
             const io_result r = drive_line_.read_some(buf, std::min(a.deadline, until));
             if (r.bytes > 0)
                 core_.on_modbus_receive({buf.data(), r.bytes}, drive_line_.now());
-            else if (r.ec && r.ec != make_error_code(errc::timeout))
+            else if (r.ec && r.ec != errc::timeout)
                 core_.on_modbus_error(r.ec); // as host::serve_gateway does
         }
     }
