@@ -33,7 +33,7 @@ constexpr std::uint32_t sr_tc = 1u << 6;
 inline volatile std::uint32_t& systick_val =
     *reinterpret_cast<volatile std::uint32_t*>(0xE000E018u);
 
-inline volatile std::uint64_t ticks_us = 0; // advanced by the SysTick handler
+inline volatile std::uint32_t ticks_us = 0; // advanced by the SysTick handler
 constexpr std::uint32_t core_hz = 16'000'000;
 
 // Defined here, not inline, so the vector table finds it: each example includes this header
@@ -67,7 +67,7 @@ public:
     [[gnu::noinline]] time_point now() const noexcept {
         // SysTick counts down from (core_hz / 1000 - 1) each millisecond.
         const std::uint32_t sub = (core_hz / 1000 - 1 - systick_val) / (core_hz / 1'000'000);
-        return time_point{std::chrono::microseconds(ticks_us + sub)};
+        return time_point{std::chrono::duration<std::uint32_t, std::micro>(ticks_us + sub)};
     }
     [[gnu::noinline]] ferrule::io_result write(std::span<const std::uint8_t> out) noexcept {
         for (auto b : out) {
