@@ -29,7 +29,7 @@ public:
     void drop() noexcept { queued_ = false; }
     bool queued() const noexcept { return queued_; }
     // When the reply is due; `never` when none is queued.
-    time_point due() const noexcept { return queued_ ? due_ : never; }
+    time_point due() const noexcept { return queued_ ? scheduled(due_) : never; }
 
     // idle: none queued; wait: until it is due; send: the reply, now (and it is no longer
     // queued).

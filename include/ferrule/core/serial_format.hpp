@@ -23,7 +23,7 @@ struct serial_format {
     constexpr unsigned bits_per_char() const noexcept {
         return 1u + data_bits + (parity == ferrule::parity::none ? 0u : 1u) + stop_bits;
     }
-    // Time one character occupies on the wire, rounded up to the next nanosecond.
+    // Time one character occupies on the wire, rounded up to the clock's resolution.
     constexpr duration char_time() const noexcept { return chars_time(1); }
     // Wire time of n back-to-back characters (computed exactly, rounded up once).
     constexpr duration chars_time(std::uint64_t n) const noexcept;
@@ -56,6 +56,25 @@ struct serial_format {
 // chars_time() with the product that depends on the format alone taken once, for a session
 // that times every request: built in its constexpr constructor, so at compile time when the
 // session is constinit.
+#if defined(FERRULE_TICK_32)
+// With the 32-bit tick (time.hpp) one character's time is kept in 1/256 us, rounded up, and n
+// characters take ceil(n × that / 256) us: a 32 × 32-bit product and shifts, no 64-bit
+// division. Rounded up twice, a time is at most n/256 + 1 us longer than exact and never
+// shorter, so no timeout is shorter than the manual's.
+class wire_clock {
+public:
+    constexpr explicit wire_clock(const serial_format& f) noexcept
+        : char_ticks_((f.bits_per_char() * 256'000'000u + f.baud - 1) / f.baud) {}
+    constexpr duration chars_time(std::uint64_t n) const noexcept {
+        const std::uint64_t t =
+            static_cast<std::uint64_t>(static_cast<std::uint32_t>(n)) * char_ticks_;
+        return duration{static_cast<std::int32_t>((t + 255) >> 8)};
+    }
+
+private:
+    std::uint32_t char_ticks_; // one character in 1/256 us (12 bits at 1 baud still fit)
+};
+#else
 class wire_clock {
 public:
     constexpr explicit wire_clock(const serial_format& f) noexcept
@@ -68,6 +87,7 @@ private:
     std::uint64_t bit_ns_; // nanoseconds × baud of one character
     std::uint32_t baud_;
 };
+#endif
 
 constexpr duration serial_format::chars_time(std::uint64_t n) const noexcept {
     return wire_clock(*this).chars_time(n);

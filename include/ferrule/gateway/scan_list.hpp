@@ -215,7 +215,7 @@ public:
             const std::size_t i = (cursor_ + k) % n;
             const std::size_t u = unit_of_[i];
             const bool offline = has(offline_, u);
-            if (offline && before(now, unit_since_[u] + policy_.reconnect_time)) continue;
+            if (offline && within(now, unit_since_[u], policy_.reconnect_time)) continue;
             if (!due(i, outputs, now)) continue;
             if (offline) unit_since_[u] = now; // this one is the probe
             cursor_ = i;
@@ -242,7 +242,7 @@ public:
             } else if (offline && before(last_now_, reconnect)) {
                 t = reconnect;
             }
-            at = earliest(at, t);
+            at = earliest(at, t == never ? t : scheduled(t));
         }
         return at;
     }
@@ -340,7 +340,7 @@ private:
         const std::size_t wb = detail::write_bytes(t);
         if (std::size_t{t.output_offset} + wb > outputs.size()) return false;
         switch (t.update) {
-        case update::cyclic: return !has(started_, i) || !before(now, last_start_[i] + t.interval);
+        case update::cyclic: return !has(started_, i) || !within(now, last_start_[i], t.interval);
         case update::on_change:
             return !has(written_, i) ||
                    !std::equal(outputs.begin() + t.output_offset,

@@ -101,20 +101,21 @@ public:
 
     session_action next(time_point now) noexcept {
         while (busy()) {
-            const bool sending = d_.state == state::pending_send;
+            if (d_.state == state::pending_send) {
+                if (d_.hold.holds(now)) return session_action::wait_until(d_.hold.end());
+                return send(now);
+            }
             // Awaiting a reply: a reply that has begun may finish.
-            const time_point until = sending             ? d_.send_after
-                                     : d_.rx == rx::idle ? d_.deadline
-                                                         : d_.deadline + reply_allowance_;
+            const time_point until =
+                d_.rx == rx::idle ? d_.deadline : d_.deadline + reply_allowance_;
             if (before(now, until)) return session_action::wait_until(until);
-            if (sending) return send(now);
-            expire(until);
+            expire(now, until);
         }
         return d_.state == state::done ? session_action::done() : session_action::idle();
     }
 
     void on_receive(std::span<const std::uint8_t> in, time_point now) noexcept {
-        if (!in.empty()) hold(now + cfg_.turnaround); // the line is not quiet
+        if (!in.empty()) hold(now, now + cfg_.turnaround); // the line is not quiet
         for (std::size_t i = 0; i < in.size(); ++i) {
             if (d_.state != state::awaiting || d_.broadcast) {
                 d_.stats.stale_bytes += static_cast<std::uint32_t>(in.size() - i);
@@ -200,19 +201,19 @@ private:
         if (++d_.attempts > 1) ++d_.stats.resends;
         const time_point end = now + d_.tx_time;
         d_.deadline = end + (d_.broadcast ? cfg_.broadcast_spacing : cfg_.response_timeout);
-        if (d_.broadcast) hold(d_.deadline); // the drives are busy
+        if (d_.broadcast) hold(now, d_.deadline); // the drives are busy
         d_.rx = rx::idle;
         d_.heard = false;
         d_.state = state::awaiting;
         return session_action::send({d_.tx.data(), d_.tx_size}, cfg_.discard_stale_input);
     }
 
-    void expire(time_point deadline) noexcept {
+    void expire(time_point now, time_point deadline) noexcept {
         if (d_.broadcast) {
             finish(errc::no_response_expected);
             return;
         }
-        hold(deadline + cfg_.turnaround);
+        hold(now, deadline + cfg_.turnaround);
         fail(d_.heard ? errc::malformed : errc::timeout);
     }
 
@@ -306,12 +307,10 @@ private:
     }
 
     // No request before t.
-    void hold(time_point t) noexcept {
-        if (t > d_.send_after) d_.send_after = t;
-    }
+    void hold(time_point now, time_point t) noexcept { d_.hold.extend(now, t); }
 
-    // All of it starts zero but for two frame kinds, the hold and the error code, so that one
-    // memset and a few stores set it up.
+    // All of it starts zero but for two frame kinds and the error code, so that one memset and
+    // a few stores set it up.
     struct data {
         master_stats stats{};
         master::state state = state::idle;
@@ -326,7 +325,7 @@ private:
         duration tx_time{}; // wire time of the request
         std::array<std::uint8_t, max_frame_length> rx_buf{};
         std::size_t rx_size = 0;
-        time_point send_after = time_point::min();
+        line_hold hold{};
         time_point deadline{}; // end of the request + response_timeout (broadcast_spacing)
         ferrule::error error{};
         fault_latch latch{};

@@ -144,7 +144,7 @@ public:
         if (a.what == session_action::kind::done || a.what == session_action::kind::idle) {
             const time_point wake = start_job(now);
             if (wake == never) return session_action::idle();
-            if (wake > now) return session_action::wait_until(wake);
+            if (before(now, wake)) return session_action::wait_until(wake);
             a = m_.next(now);
         }
         if (a.what == session_action::kind::send && m_.attempts() == 1) on_first_send(now);
@@ -196,7 +196,7 @@ private:
 
     time_point due_time(std::size_t i) const noexcept {
         const std::size_t d = t_.item_drive[i];
-        return offline(d) && t_.probe_at[d] > t_.due[i] ? t_.probe_at[d] : t_.due[i];
+        return offline(d) ? latest(t_.probe_at[d], t_.due[i]) : t_.due[i];
     }
 
     // Starts the next transaction and returns `now`, or returns when the next item is due
@@ -210,22 +210,23 @@ private:
             const queued_write& w = t_.writes[t_.head];
             t_.running = job::write;
             (void)m_.start_write(w.address, w.code, w.v); // checked by write(); the master is idle
-            return now;
+            return scheduled(now);
         }
         std::size_t best = t_.count;
         time_point best_due = never;
         for (std::size_t i = 0; i < t_.count; ++i) {
             const time_point t = due_time(i);
-            if (t < best_due) {
+            if (best == t_.count || before(t, best_due)) {
                 best = i;
                 best_due = t;
             }
         }
-        if (best == t_.count || best_due > now) return best_due;
+        if (best == t_.count) return never;
+        if (before(now, best_due)) return scheduled(best_due);
         t_.running = job::read;
         t_.current_item = best;
         (void)m_.start_read(t_.items[best].address, t_.items[best].code); // checked by add()
-        return now;
+        return scheduled(now);
     }
 
     void on_first_send(time_point now) noexcept {

@@ -78,7 +78,7 @@ public:
     // When next() has a reply, or held messages to frame; `never` when neither.
     time_point wake_at() const noexcept {
         if (reply_.queued()) return reply_.due();
-        return held_.empty() ? never : held_.end();
+        return held_.empty() ? never : scheduled(held_.end());
     }
 
     // TCP: bytes have been framed since the last message that have not made one (the start

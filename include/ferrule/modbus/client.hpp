@@ -141,9 +141,7 @@ public:
         case state::pending_send: {
             // The line quiet since our last request (its gap or turnaround) and since the
             // last byte received (its gap).
-            const time_point t =
-                latest(quiet_until_, last_rx_ + (rtu() ? cfg_.inter_frame_gap : duration{}));
-            if (before(now, t)) return session_action::wait_until(t);
+            if (quiet_.holds(now)) return session_action::wait_until(quiet_.end());
             return send(now);
         }
         case state::awaiting:
@@ -165,17 +163,17 @@ public:
         if (rtu()) {
             // An answer before our request's computed wire end: the link is faster than the
             // serial format says (a pty, a TCP bridge), so the request's hold ends now.
-            if (awaiting && before(now, tx_end_) && echo_pos_ == tx_size_) quiet_until_ = now;
+            if (awaiting && before(now, tx_end_) && echo_pos_ == tx_size_) quiet_.release();
             if (awaiting && cfg_.inter_byte_timeout.count() > 0 && !rx_.empty() &&
                 before(last_rx_ + cfg_.inter_byte_timeout,
                        now - cfg_.format.chars_time(in.size()))) {
-                last_rx_ = now;
+                received(now);
                 fail(errc::frame_gap);
                 stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
                 return;
             }
         }
-        last_rx_ = now;
+        received(now);
         std::size_t used = 0;
         if (awaiting) used = rtu() ? feed_rtu(in) : feed_tcp(in);
         stats_.stale_bytes += static_cast<std::uint32_t>(in.size() - used);
@@ -257,7 +255,7 @@ private:
             state_ = state::awaiting;
             rearm();
         }
-        quiet_until_ = tx_end_ + quiet;
+        quiet_.set(now, tx_end_ + quiet);
         return session_action::send({tx_.data(), tx_size_}, cfg_.discard_stale_input);
     }
 
@@ -279,6 +277,12 @@ private:
             gap_ = !before(late, gap);
             if (gap_) deadline_ = gap;
         }
+    }
+
+    // Bytes received at `now`: on RTU the line must then be quiet for the gap (t3.5).
+    void received(time_point now) noexcept {
+        last_rx_ = now;
+        if (rtu()) quiet_.extend(now, now + cfg_.inter_frame_gap);
     }
 
     void expire() noexcept {
@@ -425,7 +429,7 @@ private:
     };
     [[no_unique_address]] std::conditional_t<Link == link_mode::rtu, no_tcp_decoder, tcp_decoder>
         tcp_{};
-    time_point quiet_until_ = time_point::min();
+    line_hold quiet_{}; // before the next request
     time_point tx_end_{};
     time_point last_rx_ = time_point::min(); // or the end of our request
     time_point deadline_{};                  // of the attempt (rearm()) or of the turnaround

@@ -120,11 +120,9 @@ enum class diag_sub : std::uint16_t {
 };
 
 namespace detail {
-// n/10 character times of `f`, rounded up to the nanosecond.
+// n/10 character times of `f`, rounded up to the clock's resolution.
 constexpr duration tenth_chars(const serial_format& f, std::uint64_t tenths) noexcept {
-    const std::uint64_t den = 10ull * f.baud;
-    return duration{
-        static_cast<std::int64_t>((tenths * f.bits_per_char() * 1'000'000'000ull + den - 1) / den)};
+    return ceil_seconds(tenths * f.bits_per_char(), 10ull * f.baud);
 }
 } // namespace detail
 

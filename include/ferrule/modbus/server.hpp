@@ -183,13 +183,13 @@ public:
 
     // When the queued reply is due; `never` when none is queued.
     time_point reply_at() const noexcept {
-        return state_ == state::reply_queued ? reply_at_ : never;
+        return state_ == state::reply_queued ? scheduled(reply_at_) : never;
     }
     // When next() wants to be called: the reply, or the end of an RTU frame by silence.
     time_point wake_at() const noexcept {
-        if (state_ == state::reply_queued) return reply_at_;
-        if (!rtu() && !held_.empty()) return held_.end();
-        if (rtu() && !rtu_.empty()) return rx_end_ + t35();
+        if (state_ == state::reply_queued) return scheduled(reply_at_);
+        if (!rtu() && !held_.empty()) return scheduled(held_.end());
+        if (rtu() && !rtu_.empty()) return scheduled(rx_end_ + t35());
         return never;
     }
 

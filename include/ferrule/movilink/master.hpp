@@ -80,8 +80,7 @@ public:
         case state::idle: return session_action::idle();
         case state::done: return session_action::done();
         case state::pending_send: {
-            const time_point send_at = last_activity_ + pause_;
-            if (before(now, send_at)) return session_action::wait_until(send_at);
+            if (hold_.holds(now)) return session_action::wait_until(hold_.end());
             return send(now);
         }
         case state::awaiting_reply: {
@@ -111,6 +110,7 @@ public:
             }
         }
         last_activity_ = now;
+        hold_line(now);
         const auto step = decoder_.feed(in);
         if (step.what == decoder::status::error) {
             // SC01 p.19: after a broken telegram wait two start pauses.
@@ -216,6 +216,7 @@ private:
             state_ = state::done;
             error_ = errc::no_response_expected;
         }
+        hold_line(now);
         return session_action::send({tx_.data(), tx_size_}, cfg_.discard_stale_input);
     }
 
@@ -289,7 +290,11 @@ private:
     void mark_activity(time_point now, duration pause) noexcept {
         last_activity_ = now;
         if (pause > pause_) pause_ = pause;
+        hold_line(now);
     }
+    // No request before the line has been idle for pause_ after its last activity: the start
+    // pause (SC01 p.19), longer after a broken telegram or a broadcast (SC01 p.21-22).
+    void hold_line(time_point now) noexcept { hold_.set(now, last_activity_ + pause_); }
 
     bool handshake_of(std::uint8_t adr) const noexcept {
         return (handshake_[adr / 8] >> (adr % 8)) & 1u;
@@ -309,6 +314,7 @@ private:
     time_point last_activity_{};
     time_point tx_end_{};
     duration pause_ = movilink::start_pause;
+    line_hold hold_{time_point{}, movilink::start_pause};
     ferrule::error error_{};
     unsigned attempts_ = 0;
     unsigned handshake_polls_ = 0;

@@ -146,7 +146,7 @@ inline constexpr unsigned min_tsdr_bits = 11;
 inline constexpr unsigned syn_bits = 33;
 
 constexpr duration bit_times(std::uint32_t baud, std::uint64_t bits) noexcept {
-    return duration{static_cast<std::int64_t>((bits * 1'000'000'000ull + baud - 1) / baud)};
+    return ceil_seconds(bits, baud);
 }
 
 // max TSDR in bit times by baud rate (Felser "time ratios", §B.1).

@@ -244,7 +244,7 @@ private:
     time_point first_retry() const noexcept {
         time_point t = never;
         for (const cycle_slave& s : slaves_)
-            if (!s.exchanging && before(s.retry_at, t)) t = s.retry_at;
+            if (!s.exchanging) t = earliest(t, scheduled(s.retry_at));
         return t;
     }
 

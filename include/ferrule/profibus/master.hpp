@@ -99,7 +99,8 @@ enum class service : std::uint8_t {
 
 class master {
 public:
-    constexpr explicit master(const master_config& cfg = {}) noexcept : cfg_(cfg) {
+    constexpr explicit master(const master_config& cfg = {}) noexcept
+        : cfg_(cfg), syn_time_(bit_times(cfg.format.baud, syn_bits)) {
         if (cfg_.slot_time == duration::zero())
             cfg_.slot_time = bit_times(cfg_.format.baud, slot_time_bits(cfg_.format.baud));
     }
@@ -151,7 +152,7 @@ public:
         case state::idle: return session_action::idle();
         case state::done: return session_action::done();
         case state::pending_send:
-            if (before(now, send_after_)) return session_action::wait_until(send_after_);
+            if (hold_.holds(now)) return session_action::wait_until(hold_.end());
             return send(now);
         case state::no_reply: {
             const time_point quiet = tx_end_ + syn_time();
@@ -173,8 +174,8 @@ public:
         if (in.empty()) return;
         // A reply before our request's computed wire end: the link is faster than the serial
         // format says (a pty), so the request's hold ends now.
-        if (state_ == state::awaiting && before(now, tx_end_)) send_after_ = now;
-        hold(now); // the line is busy until now
+        if (state_ == state::awaiting && before(now, tx_end_)) hold_.release();
+        hold(now, now); // the line is busy until now
         last_rx_ = now;
         if (state_ != state::awaiting) return;
         heard_ = true;
@@ -233,7 +234,7 @@ public:
     bool fault_latched() const noexcept { return latch_.fault_latched(); }
     unsigned consecutive_failures() const noexcept { return latch_.consecutive_failures(); }
     void reset_fault() noexcept { latch_.reset_fault(); }
-    duration syn_time() const noexcept { return bit_times(cfg_.format.baud, syn_bits); }
+    duration syn_time() const noexcept { return syn_time_; }
 
 private:
     enum class state : std::uint8_t { idle, pending_send, awaiting, no_reply, done };
@@ -299,7 +300,7 @@ private:
         if (++attempts_ > 1) ++stats_.resends;
         tx_end_ = now + cfg_.format.chars_time(tx_size_);
         last_rx_ = tx_end_;
-        hold(tx_end_);
+        hold(now, tx_end_);
         decoder_.reset();
         decode_error_ = {};
         heard_ = false;
@@ -444,11 +445,10 @@ private:
     }
 
     // No request before the line has been idle for TSYN after t (§B.1).
-    void hold(time_point t) noexcept {
-        if (before(send_after_, t + syn_time())) send_after_ = t + syn_time();
-    }
+    void hold(time_point now, time_point t) noexcept { hold_.extend(now, t + syn_time()); }
 
     master_config cfg_;
+    duration syn_time_; // TSYN, taken once: a division by the baud rate
     master_stats stats_{};
     state state_ = state::idle;
     profibus::service service_ = service::fdl_status;
@@ -460,7 +460,7 @@ private:
     std::size_t rx_size_ = 0;
     fdl_decoder decoder_{};
     slave_diag diag_{};
-    time_point send_after_ = time_point::min();
+    line_hold hold_{};
     time_point tx_end_{};
     time_point last_rx_{};
     ferrule::error error_{};

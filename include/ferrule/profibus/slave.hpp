@@ -124,8 +124,8 @@ public:
     }
 
     time_point wake_at() const noexcept {
-        if (reply_due_) return reply_at_;
-        if (watchdog_armed()) return last_request_ + watchdog_;
+        if (reply_due_) return scheduled(reply_at_);
+        if (watchdog_armed()) return scheduled(last_request_ + watchdog_);
         return never;
     }
 

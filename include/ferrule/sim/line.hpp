@@ -43,13 +43,13 @@ public:
 
     time_point wake_at() const noexcept override {
         time_point t = never;
-        for (const auto& st : active()) t = std::min(t, st.wake_at());
+        for (const auto& st : active()) t = earliest(t, st.wake_at());
         return t;
     }
 
     void on_wake(mock_serial& line, time_point now) override {
         for (auto& st : active()) {
-            if (st.wake_at() > now) continue;
+            if (!reached(st.wake_at(), now)) continue;
             for (;;) {
                 const session_action a = st.next(now);
                 if (a.what != session_action::kind::send) break;

@@ -66,7 +66,7 @@ public:
     io_result write(std::span<const std::uint8_t> out) {
         if (const ferrule::error ec = count_operation()) return {0, ec};
         process_wakes(now_);
-        if (rx_line_free_ > now_) ++collisions_;
+        if (rx_busy_.holds(now_)) ++collisions_;
         const time_point start = now_;
         for (std::size_t i = 0; i < out.size(); ++i)
             log(start + fmt_.chars_time(i), start + fmt_.chars_time(i + 1), out[i],
@@ -82,30 +82,30 @@ public:
         if (in.empty()) return {0, {}};
         for (;;) {
             process_wakes(now_);
-            if (rx_size_ > 0 && rx_[rx_head_].arrival <= now_) {
+            if (rx_size_ > 0 && !before(now_, rx_[rx_head_].arrival)) {
                 std::size_t n = 0;
                 const std::size_t limit = read_size_ ? std::min(read_size_, in.size()) : in.size();
-                while (n < limit && rx_size_ > 0 && rx_[rx_head_].arrival <= now_) {
+                while (n < limit && rx_size_ > 0 && !before(now_, rx_[rx_head_].arrival)) {
                     in[n++] = rx_[rx_head_].value;
                     pop_rx();
                 }
                 return {n, {}};
             }
             if (closed_ && rx_size_ == 0) return {0, errc::transport};
-            time_point next = rx_size_ > 0 ? rx_[rx_head_].arrival : never;
-            if (peer_ && !closed_) next = std::min(next, peer_->wake_at());
-            if (next > deadline) {
-                if (deadline > now_) now_ = deadline;
+            time_point next = rx_size_ > 0 ? scheduled(rx_[rx_head_].arrival) : never;
+            if (peer_ && !closed_) next = earliest(next, peer_->wake_at());
+            if (!reached(next, deadline)) {
+                now_ = latest(now_, deadline);
                 return {0, errc::timeout};
             }
-            if (next > now_) now_ = next;
+            now_ = latest(now_, next);
         }
     }
 
     // Optional byte_stream members.
     void discard_input() noexcept {
         process_wakes(now_);
-        while (rx_size_ > 0 && rx_[rx_head_].arrival <= now_) {
+        while (rx_size_ > 0 && !before(now_, rx_[rx_head_].arrival)) {
             pop_rx();
             ++discarded_;
         }
@@ -115,7 +115,9 @@ public:
     // Puts bytes on the line towards the session, first byte starting at `start` (or when
     // the line is free), with `gap` of silence between consecutive bytes.
     void inject(std::span<const std::uint8_t> bytes, time_point start, duration gap = {}) {
-        const time_point t0 = std::max(start, rx_line_free_);
+        // After the bytes still arriving: kept as a line_hold, so that a test may leave the
+        // line idle for longer than half the 32-bit tick's range (core/time.hpp).
+        const time_point t0 = rx_busy_.holds(now_) ? latest(start, rx_busy_.end()) : start;
         for (std::size_t i = 0; i < bytes.size(); ++i) {
             // Exact wire times: byte i starts after i characters and i gaps.
             const time_point s = t0 + fmt_.chars_time(i) + static_cast<std::int64_t>(i) * gap;
@@ -127,19 +129,18 @@ public:
                 ++overflowed_;
             }
             log(s, end, bytes[i], wire_byte::from::peer);
-            rx_line_free_ = end;
+            rx_busy_.extend(now_, end);
         }
     }
 
     // --- time and faults ---------------------------------------------------------------
     void advance(duration d) { sleep_until(now_ + d); }
     void sleep_until(time_point t) {
-        while (peer_ && peer_->wake_at() <= t) {
-            const time_point w = peer_->wake_at();
-            if (w > now_) now_ = w;
+        while (peer_ && reached(peer_->wake_at(), t)) {
+            now_ = latest(now_, peer_->wake_at());
             peer_->on_wake(*this, now_);
         }
-        if (t > now_) now_ = t;
+        now_ = latest(now_, t);
     }
     // The n-th I/O operation from now (write or read_some; 1: the next one) fails with `ec`
     // and does nothing else: no byte leaves or is taken, the clock stays. The operations
@@ -161,7 +162,7 @@ public:
     std::size_t pending() const noexcept { return rx_size_; }
     // When the next byte towards the session arrives (never: none is on its way).
     time_point next_arrival() const noexcept {
-        return rx_size_ > 0 ? rx_[rx_head_].arrival : never;
+        return rx_size_ > 0 ? scheduled(rx_[rx_head_].arrival) : never;
     }
     std::size_t discarded() const noexcept { return discarded_; }
     std::size_t collisions() const noexcept { return collisions_; }
@@ -184,8 +185,8 @@ private:
         return fail_ec_;
     }
     void process_wakes(time_point t) {
-        while (peer_ && peer_->wake_at() <= t)
-            peer_->on_wake(*this, std::max(peer_->wake_at(), now_));
+        while (peer_ && reached(peer_->wake_at(), t))
+            peer_->on_wake(*this, latest(peer_->wake_at(), now_));
     }
     void pop_rx() noexcept {
         rx_head_ = (rx_head_ + 1) % rx_capacity;
@@ -201,7 +202,7 @@ private:
     serial_format fmt_;
     mock_peer* peer_;
     time_point now_{};
-    time_point rx_line_free_{};
+    line_hold rx_busy_{}; // until the last byte towards the session has arrived
     std::array<rx_byte, rx_capacity> rx_{};
     std::size_t rx_head_ = 0;
     std::size_t rx_size_ = 0;

@@ -66,7 +66,9 @@ void init(const ferrule::serial_format& f) {
                         (1u << 2) /* RE */;
 }
 
-// SysTick counts down from core_hz / 1000 - 1 each millisecond (PM0214 §4.5).
+// SysTick counts down from core_hz / 1000 - 1 each millisecond (PM0214 §4.5). The firmware
+// builds with FERRULE_TICK_32: time is a 32-bit microsecond count that wraps after 71.6
+// minutes, which the sessions' wrap-safe comparisons allow (docs/firmware.md).
 [[gnu::noinline]] inline ferrule::time_point now() noexcept {
     constexpr std::uint32_t per_us = core_hz / 1'000'000;
     std::uint32_t ms, val;
@@ -75,7 +77,7 @@ void init(const ferrule::serial_format& f) {
         val = *reinterpret_cast<volatile std::uint32_t*>(0xE000E018u); // SYST_CVR
     } while (ms != ticks_ms); // a tick between the two reads: read again
     const std::uint32_t us = (core_hz / 1000 - 1 - val) / per_us;
-    return ferrule::time_point{std::chrono::microseconds(std::int64_t{ms} * 1000 + us)};
+    return ferrule::time_point{std::chrono::duration<std::uint32_t, std::micro>(ms * 1000u + us)};
 }
 
 template <std::uintptr_t Base = usart2_base>

@@ -92,6 +92,7 @@ public:
         comm_ = pending_comm_;
         push_error(200);
         ready_at_ = now + cfg_.boot_time;
+        booting_.set(now, ready_at_);
         ack(ready_at_);
     }
 
@@ -109,7 +110,7 @@ public:
     // send: put these bytes on the line now; wait: until the next answer is due; idle.
     session_action next(time_point now) noexcept {
         produce(now);
-        if (queue_size_ > 0 && queue_[0].due <= now) {
+        if (queue_size_ > 0 && !before(now, queue_[0].due)) {
             const line& l = queue_[0];
             tx_size_ = l.size;
             std::copy(l.text.begin(), l.text.begin() + l.size, tx_.begin());
@@ -124,8 +125,8 @@ public:
 
     // When next() has something to do; `never` when nothing is due.
     time_point wake_at() const noexcept {
-        time_point t = queue_size_ > 0 ? queue_[0].due : never;
-        if (streaming() && queue_size_ < queue_capacity) t = std::min(t, next_sample_);
+        time_point t = queue_size_ > 0 ? scheduled(queue_[0].due) : never;
+        if (streaming() && queue_size_ < queue_capacity) t = earliest(t, scheduled(next_sample_));
         return t;
     }
 
@@ -223,14 +224,14 @@ private:
     void handle(std::span<const std::uint8_t> text, time_point now) noexcept {
         const auto parsed = parse_request(text);
         if (!parsed) {
-            if (now < ready_at_) return;
+            if (booting_.holds(now)) return;
             // Only answer garbage that starts with our own ID: `sN` + something unreadable.
             if (addressed_raw(text)) error(203, now + cfg_.response_time);
             return;
         }
         const command& c = *parsed;
         if (c.id != command::no_id && c.id != id_) return;
-        if (now < ready_at_) return; // still booting: not listening yet
+        if (booting_.holds(now)) return; // still booting: not listening yet
         ++requests_;
         const auto m = c.mnemonic.view();
         const bool stop = m == "c";
@@ -441,7 +442,7 @@ private:
             return finish_line(due);
         }
         const std::int64_t taken =
-            now < buffer_start_ + cfg_.measurement_time
+            before(now, buffer_start_ + cfg_.measurement_time)
                 ? 0
                 : (now - buffer_start_ - cfg_.measurement_time) / interval_ + 1;
         const std::int64_t fresh = taken - samples_read_;
@@ -472,7 +473,7 @@ private:
     // Queues the stream lines that are due by `now` while there is room (a full queue is a
     // full transmit buffer: the sensor waits).
     void produce(time_point now) noexcept {
-        while (streaming() && next_sample_ <= now && queue_size_ < queue_capacity) {
+        while (streaming() && !before(now, next_sample_) && queue_size_ < queue_capacity) {
             emit_stream(next_sample_);
         }
     }
@@ -541,7 +542,7 @@ private:
         std::copy(text.begin(), text.end(), l.text.begin());
         // Keep the queue in due order (a stop's acknowledge after the queued lines).
         std::size_t at = queue_size_;
-        while (at > 0 && queue_[at - 1].due > due) --at;
+        while (at > 0 && before(due, queue_[at - 1].due)) --at;
         std::move_backward(queue_.begin() + at, queue_.begin() + queue_size_,
                            queue_.begin() + queue_size_ + 1);
         queue_[at] = l;
@@ -565,6 +566,7 @@ private:
     std::int64_t samples_read_ = 0;
     int injected_ = 0;
     time_point ready_at_{};
+    line_hold booting_{}; // power_on() to ready_at_
     std::array<std::uint16_t, stack_capacity> stack_{};
     std::size_t stack_size_ = 0;
     line_decoder decoder_{};

@@ -6,7 +6,6 @@
 // line needs attention (a reply arriving, a Modbus deadline).
 #pragma once
 
-#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -41,7 +40,7 @@ public:
     }
 
     time_point wake_at() const noexcept override {
-        return std::min(core_.dp_wake_at(), drive_wake_);
+        return earliest(core_.dp_wake_at(), drive_wake_);
     }
 
     void on_wake(mock_serial& dp_line, time_point now) override {
@@ -80,23 +79,23 @@ private:
                 // Bytes that come while no reply is awaited (a late one) still reach the
                 // gateway, as from any driver: left on the line, they would wake the rig
                 // again and again.
-                if (!before(until, drive_line_.next_arrival())) {
+                if (reached(drive_line_.next_arrival(), until)) {
                     const io_result r = drive_line_.read_some(buf, until);
                     if (r.bytes > 0)
                         core_.on_modbus_receive({buf.data(), r.bytes}, drive_line_.now());
                     continue;
                 }
                 drive_line_.sleep_until(until);
-                drive_wake_ = std::min(drives_.wake_at(), drive_line_.next_arrival());
+                drive_wake_ = earliest(drives_.wake_at(), drive_line_.next_arrival());
                 return;
             }
             const time_point attention =
-                std::min({a.deadline, drives_.wake_at(), drive_line_.next_arrival()});
-            if (drive_line_.now() >= until && attention > drive_line_.now()) {
+                earliest(a.deadline, earliest(drives_.wake_at(), drive_line_.next_arrival()));
+            if (!before(drive_line_.now(), until) && !reached(attention, drive_line_.now())) {
                 drive_wake_ = attention;
                 return;
             }
-            const io_result r = drive_line_.read_some(buf, std::min(a.deadline, until));
+            const io_result r = drive_line_.read_some(buf, earliest(a.deadline, until));
             if (r.bytes > 0)
                 core_.on_modbus_receive({buf.data(), r.bytes}, drive_line_.now());
             else if (r.ec && r.ec != errc::timeout)

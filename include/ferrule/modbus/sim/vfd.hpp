@@ -165,7 +165,7 @@ public:
     // Runs the speed model up to `now`; the first call only sets the clock, earlier times are
     // ignored.
     void advance(time_point now) noexcept {
-        if (clock_set_ && now <= now_) return;
+        if (clock_set_ && !before(now_, now)) return;
         if (clock_set_) integrate(now - now_);
         clock_set_ = true;
         now_ = now;

@@ -141,11 +141,11 @@ public:
 
     // Runs the motor model up to `now` (earlier times are ignored).
     void advance(time_point now) noexcept {
-        if (now <= now_) return;
+        if (!before(now_, now)) return;
         const std::int32_t p812 = value_of(parameter_index::p812_rs485_timeout_delay);
         if (p812 > 0 && cyclic_seen_ && fault_ == 0) {
-            const time_point trip = std::max(now_, last_cyclic_ + std::chrono::milliseconds{p812});
-            if (trip < now) {
+            const time_point trip = latest(now_, last_cyclic_ + std::chrono::milliseconds{p812});
+            if (before(trip, now)) {
                 integrate(trip - now_);
                 now_ = trip;
                 cyclic_seen_ = false; // watched again from the next cyclic telegram
