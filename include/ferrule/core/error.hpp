@@ -22,14 +22,34 @@
 namespace ferrule {
 
 // What the values of one kind of error mean: one constexpr object per domain.
+//
+// FERRULE_NO_ERROR_TEXTS (a compile definition, the same in every translation unit of a
+// program) leaves the texts out: a domain then keeps only its name, which message() returns,
+// and no text function or string is linked. For firmware that reports error values, never
+// texts; the values, comparisons and the device's own codes are unchanged.
 struct error_domain {
+    using message_fn = const char* (*)(int value) noexcept;
+    using format_fn = std::size_t (*)(int value, char* buf, std::size_t size) noexcept;
+
+    constexpr error_domain(const char* domain_name, message_fn text,
+                           format_fn full_text = nullptr) noexcept
+        : name(domain_name)
+#if !defined(FERRULE_NO_ERROR_TEXTS)
+          ,
+          message(text), format(full_text)
+#endif
+    {
+        (void)text;
+        (void)full_text;
+    }
+
     const char* name;
-    // The fixed text of a value (never nullptr).
-    const char* (*message)(int value) noexcept;
+    // The fixed text of a value (never nullptr when texts are built in).
+    message_fn message = nullptr;
     // Optional, for values a fixed text cannot say in full (MOVILINK's class, code and
     // additional code): writes the whole text into buf, NUL-terminated and cut to size, and
     // returns its length. Allocation-free.
-    std::size_t (*format)(int value, char* buf, std::size_t size) noexcept = nullptr;
+    format_fn format = nullptr;
 };
 
 // An enum whose values are errors of one domain: specialise this to true and give the enum
@@ -55,7 +75,8 @@ public:
     constexpr const error_domain* domain() const noexcept { return domain_; }
     constexpr const char* name() const noexcept { return domain_ ? domain_->name : "none"; }
     constexpr const char* message() const noexcept {
-        return domain_ ? domain_->message(value_) : "no error";
+        if (!domain_) return "no error";
+        return domain_->message ? domain_->message(value_) : domain_->name;
     }
     // The full text into buf (the domain's formatter, or message()); returns its length.
     std::size_t format(char* buf, std::size_t size) const noexcept {
@@ -186,7 +207,7 @@ public:
     explicit domain_category(const error_domain& d) noexcept : domain_(d) {}
     const char* name() const noexcept override { return domain_.name; }
     std::string message(int ev) const override {
-        if (!domain_.format) return domain_.message(ev);
+        if (!domain_.format) return error(ev, domain_).message();
         char buf[256];
         const std::size_t n = domain_.format(ev, buf, sizeof buf);
         return std::string(buf, n);
