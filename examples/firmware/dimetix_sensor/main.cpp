@@ -61,7 +61,7 @@ int main() {
         }
         if (++transactions % 100 == 0)
             board::report("transactions=", transactions, " stack=", board::stack_high_water());
-        static constexpr command measure = distance(sensor_id);
+        static constexpr planned_command measure = plan(distance(sensor_id));
         if (connected)
             (void)dimetix_sensor.start(measure);
         else
