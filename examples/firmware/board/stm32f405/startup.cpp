@@ -109,7 +109,9 @@ extern "C" [[noreturn]] void Default_Handler() {
 }
 
 // Everything below the reset handler's own frame is painted; 64 bytes keep clear of it.
-extern "C" [[noreturn]] void Reset_Handler() {
+// The copy and clear loops stay loops: as calls to newlib's memcpy they would link its 308
+// bytes into images whose .data is a few bytes.
+extern "C" [[noreturn, gnu::optimize("no-tree-loop-distribute-patterns")]] void Reset_Handler() {
     for (auto *s = _sidata, *d = _sdata; d < _edata;) *d++ = *s++;
     for (auto* d = _sbss; d < _ebss;) *d++ = 0;
     std::uint32_t* sp;
