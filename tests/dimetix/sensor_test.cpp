@@ -294,6 +294,35 @@ TEST_CASE("invalid commands are refused before anything is sent", "[dimetix][sen
     CHECK(s.next(time_point{}).what == ferrule::session_action::kind::idle);
 }
 
+TEST_CASE("a planned command carries the table's answer and timeout into start()",
+          "[dimetix][sensor]") {
+    // plan() of a constant is a constant: the command table is read at compile time.
+    static constexpr planned_command g = plan(distance(0));
+    static_assert(g.expect == answer::value && g.measures);
+    static constexpr planned_command uo = plan(make_command(0, "uo", 300));
+    static_assert(uo.expect == answer::set_ack && !uo.measures);
+    static_assert(plan(distance(100)).expect == answer::none);
+    static_assert(plan(make_command(0, "g", 1)).expect == answer::none);
+
+    const std::array steps{silent("s0uo+300\r\n"), reply_with("s0g\r\n", "g0g+00000042\r\n")};
+    ferrule::script_peer peer(steps);
+    mock_serial line(default_format, &peer);
+    sensor_config cfg;
+    cfg.retries = 0;
+    cfg.command_timeout = 200ms;
+    sensor s(cfg);
+    CHECK(s.start(plan(make_command(0, "eg", 100))) == errc::invalid_argument);
+    REQUIRE_FALSE(s.start(uo));
+    CHECK(ferrule::run(line, s) ==
+          errc::timeout); // the command timeout, not the measurement timeout
+    CHECK(line.now() == time_point{} + default_format.chars_time(10) + 200ms);
+    s.clear();
+    REQUIRE_FALSE(s.start(g));
+    REQUIRE_FALSE(ferrule::run(line, s));
+    CHECK(s.reply().values[0] == 42);
+    CHECK(peer.mismatches() == 0);
+}
+
 TEST_CASE("forced tracking on a single-sensor line: done with its first line",
           "[dimetix][sensor]") {
     const std::array steps{reply_with("s0h+100\r\n", "g0h+00001000\r\n", 100ms)};

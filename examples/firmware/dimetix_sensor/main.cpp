@@ -21,7 +21,6 @@ namespace {
 constexpr std::uint8_t sensor_id = 1; // sNid of the sensor on the line
 
 constinit board::uart_stream uart(ferrule::dimetix::default_format);
-constinit ferrule::dimetix::sensor dimetix_sensor;
 
 // PLC-style outputs of this example, e.g. for a display task (names as in the paper).
 volatile bool connected = false;
@@ -32,6 +31,9 @@ volatile std::int32_t error_code = 0; // zzz of the last gN@Ezzz
 int main() {
     board::init(ferrule::dimetix::default_format);
     using namespace ferrule::dimetix;
+    // The session lives in main(), which never returns: start-up writes its few non-zero
+    // fields. A global would be constant-initialised and copied from flash whole (.data).
+    sensor dimetix_sensor;
     ferrule::poll_driver driver(uart, dimetix_sensor);
     (void)dimetix_sensor.start_connect(sensor_id);
     std::uint32_t transactions = 0;
@@ -61,7 +63,7 @@ int main() {
         }
         if (++transactions % 100 == 0)
             board::report("transactions=", transactions, " stack=", board::stack_high_water());
-        static constexpr command measure = distance(sensor_id);
+        static constexpr planned_command measure = plan(distance(sensor_id));
         if (connected)
             (void)dimetix_sensor.start(measure);
         else

@@ -15,8 +15,6 @@
 
 namespace {
 constinit board::uart_stream uart(ferrule::movilink::default_format);
-constinit ferrule::movilink::master movilink_master;
-constinit ferrule::movilink::cyclic drive(movilink_master, 1);
 
 // PLC-style outputs of this example, e.g. for a display task.
 volatile std::uint16_t status_word = 0;
@@ -27,6 +25,10 @@ volatile std::uint32_t heat_sink_temperature = 0;
 int main() {
     board::init(ferrule::movilink::default_format);
     using namespace ferrule::movilink;
+    // The sessions live in main(), which never returns: start-up writes their few non-zero
+    // fields. Globals would be constant-initialised and copied from flash whole (.data).
+    master movilink_master;
+    cyclic drive(movilink_master, 1);
     drive.set_po(0, 0x0006);   // control word 1: enable
     drive.set_po(1, 1500 * 5); // 1500 rpm at 0.2 rpm per digit
     drive.set_po(2, 2000);     // ramp 2 s

@@ -67,28 +67,47 @@ struct sensor_stats {
     std::uint32_t stale_bytes = 0;   // received while no answer was awaited
 };
 
+// A command with what the session reads from the command table for it (S1 ch.8): the answer
+// it gets and whether it measures (or writes flash), which sets its timeout.
+struct planned_command {
+    command cmd{};
+    answer expect = answer::none; // none: not a documented form; start() refuses it
+    bool measures = false;
+};
+
+// The plan for `c`; answer::none for an undocumented form, an ID out of range or more than a
+// request holds (parameter ranges are the sensor's to check, @E203; validate() checks them).
+constexpr planned_command plan(const command& c) noexcept {
+    planned_command p{c};
+    if ((c.id > max_id && c.id != command::no_id) || c.param_count > command::max_params ||
+        c.digits > 10) // as encode(): a request holds max_request_length bytes
+        return p;
+    if (const command_spec* s = find_spec(c.mnemonic, c.id != command::no_id)) {
+        p.expect = answer_of(*s, c.param_count);
+        p.measures = s->measures;
+    }
+    return p;
+}
+
 class sensor {
 public:
     constexpr explicit sensor(const sensor_config& cfg = {}) noexcept
         : wire_(cfg.format), cfg_(cfg) {}
 
     // One command: send it, wait for its answer, retry as configured.
-    ferrule::error start(const command& c) noexcept {
+    ferrule::error start(const command& c) noexcept { return start(plan(c)); }
+    // A command planned beforehand: `static constexpr planned_command p = plan(distance(1));`
+    // reads the command table at compile time, so a firmware image links none of it.
+    ferrule::error start(const planned_command& p) noexcept {
         if (busy()) return errc::busy;
-        // A documented command form (S1 ch.8); parameter ranges are the sensor's to check
-        // (@E203), validate() checks them beforehand.
-        if ((c.id > max_id && c.id != command::no_id) || c.param_count > command::max_params ||
-            c.digits > 10) // as encode(): tx_ holds max_request_length bytes
-            return errc::invalid_argument;
-        const command_spec* s = find_spec(c.mnemonic, c.id != command::no_id);
-        const answer a = s ? answer_of(*s, c.param_count) : answer::none;
-        if (a == answer::none) return errc::invalid_argument;
+        if (p.expect == answer::none) return errc::invalid_argument;
+        const command& c = p.cmd;
         if (cfg_.multi_drop &&
             (c.id == command::no_id || (is_continuous(c) && !cfg_.force_continuous)))
             return errc::invalid_argument;
         if (latched_ && !c.mnemonic.is('c')) return errc::fault_latched;
         cmd_ = c;
-        return begin(a, s->measures, cfg_.retries);
+        return begin(p.expect, p.measures, cfg_.retries);
     }
 
     // The start-up of S1 §8.2.1 / the paper: sNc until the sensor acknowledges with gN?.

@@ -96,8 +96,8 @@ template <link_mode Link = link_mode::any, function_set Fs = all_functions,
 class basic_client {
 public:
     constexpr explicit basic_client(const client_config& cfg = {}) noexcept
-        : cfg_(cfg), char_time_(cfg.format.char_time()), silence_(t35(cfg.format) + char_time_),
-          adu_time_(cfg.format.chars_time(max_rtu_adu)) {
+        : cfg_(cfg), wire_(cfg.format), char_time_(wire_.chars_time(1)),
+          silence_(t35(cfg.format) + char_time_), adu_time_(wire_.chars_time(max_rtu_adu)) {
         if constexpr (Link != link_mode::any) cfg_.rtu = Link == link_mode::rtu;
     }
 
@@ -165,8 +165,7 @@ public:
             // serial format says (a pty, a TCP bridge), so the request's hold ends now.
             if (awaiting && before(now, tx_end_) && echo_pos_ == tx_size_) quiet_.release();
             if (awaiting && cfg_.inter_byte_timeout.count() > 0 && !rx_.empty() &&
-                before(last_rx_ + cfg_.inter_byte_timeout,
-                       now - cfg_.format.chars_time(in.size()))) {
+                before(last_rx_ + cfg_.inter_byte_timeout, now - wire_.chars_time(in.size()))) {
                 received(now);
                 fail(errc::frame_gap);
                 stats_.stale_bytes += static_cast<std::uint32_t>(in.size());
@@ -238,7 +237,7 @@ private:
     session_action send(time_point now) noexcept {
         if (++attempts_ > 1) ++stats_.resends;
         if (!rtu()) tx_size_ = seal_tcp(++transaction_, unit_, tx_.data(), pdu_size_);
-        tx_end_ = rtu() ? now + cfg_.format.chars_time(tx_size_) : now;
+        tx_end_ = rtu() ? now + wire_.chars_time(tx_size_) : now;
         last_rx_ = tx_end_;
         rx_.clear();
         tcp_.reset();
@@ -412,6 +411,7 @@ private:
     }
 
     client_config cfg_;
+    wire_clock wire_;    // cfg_.format's character times, the product taken once
     duration char_time_; // one character on the wire
     duration silence_;   // t3.5 and the character that would end it
     duration adu_time_;  // the longest ADU on the wire

@@ -55,7 +55,8 @@ struct master_stats {
 
 class master {
 public:
-    constexpr explicit master(const master_config& cfg = {}) noexcept : cfg_(cfg) {}
+    constexpr explicit master(const master_config& cfg = {}) noexcept
+        : cfg_(cfg), wire_(cfg.format) {}
 
     // Process data only: PO words out, PI words back. `po` holds pd_words(type) words.
     // A PARAM+nPD type is allowed; its parameter channel then carries "no service".
@@ -102,7 +103,7 @@ public:
             return;
         }
         if (decoder_.in_frame() && cfg_.max_char_delay.count() > 0) {
-            const duration wire = cfg_.format.chars_time(in.size());
+            const duration wire = wire_.chars_time(in.size());
             if (before(last_activity_ + cfg_.max_char_delay, now - wire)) {
                 mark_activity(now, 2 * cfg_.start_pause);
                 fail_attempt(errc::frame_gap);
@@ -204,7 +205,7 @@ private:
         else if (++attempts_ > 1)
             ++stats_.resends;
         handshake_polling_ = false;
-        tx_end_ = now + cfg_.format.chars_time(tx_size_);
+        tx_end_ = now + wire_.chars_time(tx_size_);
         last_activity_ = tx_end_;
         pause_ = cfg_.start_pause;
         decoder_.idle();
@@ -223,8 +224,8 @@ private:
     time_point reply_deadline() const noexcept {
         if (!decoder_.in_frame()) return tx_end_ + cfg_.response_timeout;
         if (cfg_.max_char_delay.count() > 0)
-            return last_activity_ + cfg_.format.char_time() + cfg_.max_char_delay;
-        return tx_end_ + cfg_.response_timeout + cfg_.format.chars_time(max_telegram_size);
+            return last_activity_ + wire_.chars_time(1) + cfg_.max_char_delay;
+        return tx_end_ + cfg_.response_timeout + wire_.chars_time(max_telegram_size);
     }
 
     void evaluate() noexcept {
@@ -304,6 +305,7 @@ private:
     }
 
     master_config cfg_;
+    wire_clock wire_; // cfg_.format's character times, the product taken once
     master_stats stats_{};
     state state_ = state::idle;
     telegram request_{};

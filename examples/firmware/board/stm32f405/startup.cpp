@@ -66,19 +66,37 @@ bool start_clock_tree() {
 // USART1 on PA9/PA10, USART2 on PA2/PA3, USART3 (console) on PB10/PB11, all alternate
 // function 7 (DS8626 Table 9). RS-485 transceivers with automatic direction control are
 // assumed; a board with a driver-enable pin drives it around write() (docs/firmware.md).
-void set_alternate_function(unsigned port, unsigned pin) {
-    auto& g = gpio(port);
-    g.moder = (g.moder & ~(3u << (2 * pin))) | (2u << (2 * pin));
-    auto& afr = g.afr[pin / 8];
-    afr = (afr & ~(0xFu << (4 * (pin % 8)))) | (7u << (4 * (pin % 8)));
+// The masks are constants: one read-modify-write per register, no loop over the pins.
+struct pin_masks {
+    std::uint32_t moder_clear = 0, moder_set = 0;
+    std::uint32_t afr_clear[2] = {}, afr_set[2] = {};
+};
+template <unsigned... Pins>
+constexpr pin_masks alternate_function_7() {
+    pin_masks m;
+    for (unsigned pin : {Pins...}) {
+        m.moder_clear |= 3u << (2 * pin);
+        m.moder_set |= 2u << (2 * pin); // MODER = 10: alternate function
+        m.afr_clear[pin / 8] |= 0xFu << (4 * (pin % 8));
+        m.afr_set[pin / 8] |= 7u << (4 * (pin % 8));
+    }
+    return m;
+}
+
+template <unsigned Port, pin_masks M>
+void set_alternate_functions() {
+    auto& g = gpio(Port);
+    g.moder = (g.moder & ~M.moder_clear) | M.moder_set;
+    for (unsigned i = 0; i < 2; ++i)
+        if (M.afr_clear[i]) g.afr[i] = (g.afr[i] & ~M.afr_clear[i]) | M.afr_set[i];
 }
 
 void start_peripherals() {
     rcc().ahb1enr |= (1u << 0) | (1u << 1);  // GPIOA, GPIOB
     rcc().apb2enr |= 1u << 4;                // USART1
     rcc().apb1enr |= (1u << 17) | (1u << 18); // USART2, USART3
-    for (unsigned pin : {2u, 3u, 9u, 10u}) set_alternate_function(0, pin);
-    for (unsigned pin : {10u, 11u}) set_alternate_function(1, pin);
+    set_alternate_functions<0, alternate_function_7<2, 3, 9, 10>()>();
+    set_alternate_functions<1, alternate_function_7<10, 11>()>();
 }
 
 // SysTick from the processor clock, one interrupt per millisecond (PM0214 §4.5.1).
@@ -109,7 +127,9 @@ extern "C" [[noreturn]] void Default_Handler() {
 }
 
 // Everything below the reset handler's own frame is painted; 64 bytes keep clear of it.
-extern "C" [[noreturn]] void Reset_Handler() {
+// The copy and clear loops stay loops: as calls to newlib's memcpy they would link its 308
+// bytes into images whose .data is a few bytes.
+extern "C" [[noreturn, gnu::optimize("no-tree-loop-distribute-patterns")]] void Reset_Handler() {
     for (auto *s = _sidata, *d = _sdata; d < _edata;) *d++ = *s++;
     for (auto* d = _sbss; d < _ebss;) *d++ = 0;
     std::uint32_t* sp;
