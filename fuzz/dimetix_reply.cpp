@@ -101,22 +101,24 @@ void check_same(const reply& a, const reply& b) {
 }
 
 void check_read_answer(const command& c, std::span<const std::uint8_t> line) {
-    const answer a = detail::expected_answer(c);
+    const answer a = dimetix::detail::expected_answer(c);
     reply r;
     r.count = 3; // read_answer() starts from a blank reply
-    const detail::line_is what = detail::read_answer(c, a, line, r);
+    const dimetix::detail::line_is what = dimetix::detail::read_answer(c, a, line, r);
     reply p;
-    const bool parsed = detail::parse_into(line, p);
-    const auto m = parsed ? detail::classify(c, a, p) : detail::match::other_answer;
-    if (what == detail::line_is::malformed) FERRULE_CHECK(!parsed);
-    FERRULE_CHECK((what == detail::line_is::answer) == (parsed && m == detail::match::answer));
-    FERRULE_CHECK((what == detail::line_is::device_error) ==
-                  (parsed && m == detail::match::device_error));
-    if (what == detail::line_is::answer) {
+    const bool parsed = dimetix::detail::parse_into(line, p);
+    const auto m =
+        parsed ? dimetix::detail::classify(c, a, p) : dimetix::detail::match::other_answer;
+    if (what == dimetix::detail::line_is::malformed) FERRULE_CHECK(!parsed);
+    FERRULE_CHECK((what == dimetix::detail::line_is::answer) ==
+                  (parsed && m == dimetix::detail::match::answer));
+    FERRULE_CHECK((what == dimetix::detail::line_is::device_error) ==
+                  (parsed && m == dimetix::detail::match::device_error));
+    if (what == dimetix::detail::line_is::answer) {
         check_same(r, answered(c, p));
         FERRULE_CHECK(!check_answers(c, r));
     }
-    if (what == detail::line_is::device_error) {
+    if (what == dimetix::detail::line_is::device_error) {
         check_same(r, p);
         FERRULE_CHECK(check_answers(c, r) == make_device_error(r.error_code));
     }

@@ -16,7 +16,7 @@
 # and not counted.
 #   tools/firmware-size.sh build/firmware/examples/firmware/movilink_master.elf 'ferrule::movilink::'
 # MOVILINK codec + master session (no cyclic layer, no error-message texts):
-#   tools/firmware-size.sh <elf> 'ferrule::' 'ferrule::movilink::cyclic::|_category_t::|^board::'
+#   tools/firmware-size.sh <elf> 'ferrule::' 'ferrule::movilink::cyclic::|_domain_t::|^board::'
 # NM and OBJDUMP override the binaries (default arm-none-eabi-nm, arm-none-eabi-objdump).
 set -euo pipefail
 
