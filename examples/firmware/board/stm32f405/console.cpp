@@ -11,7 +11,9 @@ void put(char c) {
 }
 } // namespace
 
-void console_init() { init<usart3_base>({115200, 8, ferrule::parity::none, 1}); }
+void console_init() {
+    init<usart3_base>({115200, 8, ferrule::parity::none, 1});
+}
 
 void print(const char* text) {
     while (*text) put(*text++);
@@ -29,7 +31,8 @@ void print_uint(std::uint32_t value) {
 
 void print_int(std::int32_t value) {
     if (value < 0) put('-');
-    print_uint(value < 0 ? 0u - static_cast<std::uint32_t>(value) : static_cast<std::uint32_t>(value));
+    print_uint(value < 0 ? 0u - static_cast<std::uint32_t>(value)
+                         : static_cast<std::uint32_t>(value));
 }
 
 void print_hex(std::uint32_t value) {

@@ -22,8 +22,7 @@ namespace {
 
 struct rcc_regs {
     volatile std::uint32_t cr, pllcfgr, cfgr, cir, ahb1rstr, ahb2rstr, ahb3rstr, reserved0,
-        apb1rstr, apb2rstr, reserved1[2], ahb1enr, ahb2enr, ahb3enr, reserved2, apb1enr,
-        apb2enr;
+        apb1rstr, apb2rstr, reserved1[2], ahb1enr, ahb2enr, ahb3enr, reserved2, apb1enr, apb2enr;
 };
 struct gpio_regs {
     volatile std::uint32_t moder, otyper, ospeedr, pupdr, idr, odr, bsrr, lckr, afr[2];
@@ -33,12 +32,18 @@ struct systick_regs {
 };
 
 // RM0090 §2.3 (memory map) and PM0214 §4.5 (SysTick).
-rcc_regs& rcc() { return *reinterpret_cast<rcc_regs*>(0x40023800u); }
-volatile std::uint32_t& flash_acr() { return *reinterpret_cast<volatile std::uint32_t*>(0x40023C00u); }
+rcc_regs& rcc() {
+    return *reinterpret_cast<rcc_regs*>(0x40023800u);
+}
+volatile std::uint32_t& flash_acr() {
+    return *reinterpret_cast<volatile std::uint32_t*>(0x40023C00u);
+}
 gpio_regs& gpio(unsigned port) {
     return *reinterpret_cast<gpio_regs*>(0x40020000u + 0x400u * port);
 }
-systick_regs& systick() { return *reinterpret_cast<systick_regs*>(0xE000E010u); }
+systick_regs& systick() {
+    return *reinterpret_cast<systick_regs*>(0xE000E010u);
+}
 
 // How long start-up waits for a clock-ready bit. The PLL locks within about 100 us
 // (DS8626 Table 34, t_LOCK); QEMU models no RCC (its registers read 0), so the wait must end.
@@ -55,7 +60,7 @@ bool wait_set(volatile std::uint32_t& reg, std::uint32_t mask, std::uint32_t val
 // AHB /1, APB1 /4 = 42 MHz (max 42), APB2 /2 = 84 MHz (max 84). Flash: 5 wait states at
 // 168 MHz and 2.7-3.6 V, prefetch and both caches on (RM0090 §3.5.1 Table 10, §3.9.1).
 bool start_clock_tree() {
-    flash_acr() = 5u | (1u << 8) | (1u << 9) | (1u << 10); // LATENCY, PRFTEN, ICEN, DCEN
+    flash_acr() = 5u | (1u << 8) | (1u << 9) | (1u << 10);       // LATENCY, PRFTEN, ICEN, DCEN
     rcc().pllcfgr = 16u | (336u << 6) | (0u << 16) | (7u << 24); // PLLSRC = HSI (bit 22 = 0)
     rcc().cr |= 1u << 24;                                        // PLLON
     const bool locked = wait_set(rcc().cr, 1u << 25, 1u << 25);  // PLLRDY
@@ -92,8 +97,8 @@ void set_alternate_functions() {
 }
 
 void start_peripherals() {
-    rcc().ahb1enr |= (1u << 0) | (1u << 1);  // GPIOA, GPIOB
-    rcc().apb2enr |= 1u << 4;                // USART1
+    rcc().ahb1enr |= (1u << 0) | (1u << 1);   // GPIOA, GPIOB
+    rcc().apb2enr |= 1u << 4;                 // USART1
     rcc().apb1enr |= (1u << 17) | (1u << 18); // USART2, USART3
     set_alternate_functions<0, alternate_function_7<2, 3, 9, 10>()>();
     set_alternate_functions<1, alternate_function_7<10, 11>()>();
@@ -119,7 +124,9 @@ std::uint32_t stack_high_water() {
 
 } // namespace board
 
-extern "C" void SysTick_Handler() { board::ticks_ms = board::ticks_ms + 1; }
+extern "C" void SysTick_Handler() {
+    board::ticks_ms = board::ticks_ms + 1;
+}
 
 extern "C" [[noreturn]] void Default_Handler() {
     for (;;) {
