@@ -123,11 +123,21 @@ inline constexpr std::array<command_spec, 38> command_table{{
     {"dg", 0, answer::value, 0, detail::no, false, true, 0, 0},        // §8.5.4 ID-less
 }};
 
+// The index in command_table of a mnemonic sent with or without an ID; command_table.size() if
+// not in S1 ch.8. Constant-evaluated code uses this rather than find_spec(): GCC does not take
+// "a table entry's address != nullptr" as a constant expression under -fsanitize.
+constexpr std::size_t spec_index(const mnemonic& name, bool with_id) noexcept {
+    std::size_t i = 0;
+    while (i < command_table.size() &&
+           !(command_table[i].name == name && command_table[i].no_id != with_id))
+        ++i;
+    return i;
+}
+
 // The table entry for a mnemonic sent with or without an ID; nullptr if not in S1 ch.8.
 constexpr const command_spec* find_spec(const mnemonic& name, bool with_id) noexcept {
-    for (const auto& s : command_table)
-        if (s.name == name && s.no_id != with_id) return &s;
-    return nullptr;
+    const std::size_t i = spec_index(name, with_id);
+    return i < command_table.size() ? &command_table[i] : nullptr;
 }
 
 // The answer to the form with `params` parameters; answer::none if that form does not exist.

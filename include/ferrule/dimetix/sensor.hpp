@@ -82,9 +82,10 @@ constexpr planned_command plan(const command& c) noexcept {
     if ((c.id > max_id && c.id != command::no_id) || c.param_count > command::max_params ||
         c.digits > 10) // as encode(): a request holds max_request_length bytes
         return p;
-    if (const command_spec* s = find_spec(c.mnemonic, c.id != command::no_id)) {
-        p.expect = answer_of(*s, c.param_count);
-        p.measures = s->measures;
+    if (const std::size_t i = spec_index(c.mnemonic, c.id != command::no_id);
+        i < command_table.size()) {
+        p.expect = answer_of(command_table[i], c.param_count);
+        p.measures = command_table[i].measures;
     }
     return p;
 }
