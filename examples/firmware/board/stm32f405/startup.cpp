@@ -1,6 +1,6 @@
 // Start-up of the STM32F405 board: the vector table, the reset handler (.data copy, .bss
 // zero, stack paint, static constructors, clock tree), SysTick as the time base, and the
-// USART set-up. Nothing of newlib's crt0 or its system-call stubs is linked.
+// USART set-up. Neither newlib's crt0 nor its libnosys system calls are linked.
 #include <cstdint>
 
 #include "board.hpp"
